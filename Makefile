@@ -1,0 +1,42 @@
+# bsrflow: two commands on a fresh machine (python3 + pip + make):
+#   make demo   -> virtual environment, install, run the main job (tapped column), write figures
+#   make test   -> the default test suite
+PYTHON ?= python3
+VENV   ?= .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+OUT    ?= out
+
+.PHONY: demo test test-slow verify stability compare bench install clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e ".[test]"
+	touch $(STAMP)
+
+install: $(STAMP)
+
+demo: $(STAMP)
+	$(BIN)/bsrflow demo --out $(OUT)
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -q
+
+test-slow: $(STAMP)
+	$(BIN)/python -m pytest -q -m slow
+
+verify: $(STAMP)
+	$(BIN)/bsrflow verify --json $(OUT)/verify.json
+
+stability: $(STAMP)
+	$(BIN)/bsrflow stability --json $(OUT)/stability.json --figures $(OUT)/stability
+
+compare: $(STAMP)
+	$(BIN)/bsrflow compare --json $(OUT)/compare.json --figures $(OUT)/compare
+
+bench: $(STAMP)
+	$(BIN)/python bench/bench_step.py --json bench/results.json
+
+clean:
+	rm -rf $(VENV) $(OUT) build src/*.egg-info

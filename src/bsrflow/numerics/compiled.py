@@ -1,0 +1,270 @@
+"""The compiled (numba) time loop of the 1-D semidiscrete scheme.
+
+One call of ``advance`` runs many whole steps without returning to Python: every Runge-Kutta
+stage fills the ghost values, evaluates the right-hand side (central differences (4.19)-(4.24),
+the interaction integral by quadrature), the stages are combined, the moving average is
+applied (after (4.24)), tracers are moved, and the monitors are checked.
+
+User physics (kernel Θ, external force e, applied motion ϑ, Dirichlet boundary values) is
+compiled into the loop through a factory closure, ``make_core(...)``, cached per combination
+of functions.  Everything else (tableau, boundary kinds, filter switch, quadrature weights,
+parameters) is runtime data, so changing it does not recompile.
+
+Status codes returned by ``advance``: see ``STATUS``.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numba
+import numpy as np
+
+__all__ = ["make_core", "STATUS"]
+
+STATUS = {
+    0: "ok",
+    1: "non-finite value (the solution blew up)",
+    2: "density above the bound rho_max",
+    3: "time step collapsed below dt_min (velocity or wave speed unbounded: gradient catastrophe?)",
+    4: "maximum number of steps reached",
+    5: "material reached the vacuum top of the domain (domain too short)",
+    6: "compression-rate monitor: max(-u_x) * dt above the limit (characteristics about to cross)",
+}
+
+
+@functools.lru_cache(maxsize=64)
+def make_core(kernel_fn, external_fn, motion_fn, boundary_fn):
+    """Build the compiled functions for one combination of physics functions.
+
+    ``kernel_fn(z, u_here, u_there, p)``, ``external_fn(t, x, u, p)``,
+    ``boundary_fn(t, x, p) -> (u, rho)`` are numba-compiled functions;
+    ``motion_fn(t, p) -> (ϑ, ϑ', ϑ'')`` likewise.
+    Returns a namespace with ``fill_ghosts``, ``rhs``, ``moving_average`` and ``advance``.
+    """
+    K = kernel_fn
+    E = external_fn
+    M = motion_fn
+    B = boundary_fn
+
+    @numba.njit(cache=False)
+    def fill_ghosts(u, rho, t, up, rp, G, bcl, bch, xlo, dx, bp):
+        """Copy (u, rho) into padded arrays with G ghost cells on each side (see grid.py)."""
+        N = u.size
+        for j in range(N):
+            up[G + j] = u[j]
+            rp[G + j] = rho[j]
+        for g in range(1, G + 1):
+            lo = G - g            # padded index of cell -g
+            hi = G + N - 1 + g    # padded index of cell N-1+g
+            if bcl == 0:
+                m = (-g) % N
+                up[lo] = u[m]
+                rp[lo] = rho[m]
+            elif bcl == 1:
+                m = g - 1
+                if m < N:
+                    up[lo] = -u[m]
+                    rp[lo] = rho[m]
+                else:
+                    up[lo] = 0.0
+                    rp[lo] = 0.0
+            elif bcl == 2:
+                up[lo] = u[0]
+                rp[lo] = 0.0
+            else:
+                uu, rr = B(t, xlo + (0.5 - g) * dx, bp)
+                up[lo] = uu
+                rp[lo] = rr
+            if bch == 0:
+                m = (N - 1 + g) % N
+                up[hi] = u[m]
+                rp[hi] = rho[m]
+            elif bch == 2:
+                up[hi] = u[N - 1]
+                rp[hi] = 0.0
+            else:
+                uu, rr = B(t, xlo + (N - 0.5 + g) * dx, bp)
+                up[hi] = uu
+                rp[hi] = rr
+
+    @numba.njit(cache=False)
+    def rhs(t, up, rp, G, N, xlo, dx, W, qz, qw, kp, grav, ep, mp, du, dr):
+        """Semi-discrete right-hand side (4.13)-(4.14) at every cell from padded arrays."""
+        frame = M(t, mp)[2]
+        h = 0.5 / dx
+        for i in range(N):
+            ii = G + i
+            ui = up[ii]
+            x = xlo + (i + 0.5) * dx
+            acc = -ui * (up[ii + 1] - up[ii - 1]) * h + E(t, x, ui, ep) - grav - frame
+            s = 0.0
+            for k in range(-W, W + 1):
+                s += qw[k + W] * rp[ii + k] * K(qz[k + W], ui, up[ii + k], kp)
+            du[i] = acc + s
+            dr[i] = -(rp[ii + 1] * up[ii + 1] - rp[ii - 1] * up[ii - 1]) * h
+
+    @numba.njit(cache=False)
+    def moving_average(u, rho, up, rp, G):
+        """Near-neighbour average (1/4, 1/2, 1/4) of (5.7), n = 1, from padded arrays."""
+        N = u.size
+        for i in range(N):
+            ii = G + i
+            u[i] = 0.25 * (up[ii - 1] + 2.0 * up[ii] + up[ii + 1])
+            rho[i] = 0.25 * (rp[ii - 1] + 2.0 * rp[ii] + rp[ii + 1])
+
+    @numba.njit(cache=False)
+    def interp(up, G, N, xlo, dx, p):
+        """Linear interpolation of a padded cell-centred field at position p."""
+        q = (p - xlo) / dx - 0.5 + G
+        if q < 0.0:
+            q = 0.0
+        if q > N + 2 * G - 1.000001:
+            q = N + 2 * G - 1.000001
+        i0 = int(math.floor(q))
+        f = q - i0
+        return (1.0 - f) * up[i0] + f * up[i0 + 1]
+
+    @numba.njit(cache=False)
+    def advance(u, rho, t, t_end, dt_fixed, cfl, kappa, A, b, c, filt, bcl, bch, xlo, dx, W, qz, qw,
+                kp, grav, ep, mp, bp, dt_min, rho_max, max_steps, strain_limit, top_tol,
+                tracers, tracer_mode):
+        """Advance (u, rho, tracers) in place from t to t_end.
+
+        dt: ``dt_fixed`` if > 0, else cfl Δx / (max|u| + sqrt(κ max ρ)); the last step is
+        shortened to land on t_end.  tracer_mode: 0 none, 1 forward Euler with the velocity
+        at the start of the step (the seed's), 2 the field's Runge-Kutta tableau with the
+        stage velocity fields.  Returns (t, steps, status, where_index, dt_last).
+        """
+        N = u.size
+        G = max(W, 1)
+        s = b.size
+        nt = tracers.size
+        up = np.empty(N + 2 * G)
+        rp = np.empty(N + 2 * G)
+        ku = np.empty((s, N))
+        kr = np.empty((s, N))
+        yu = np.empty(N)
+        yr = np.empty(N)
+        vt = np.empty((s, nt))
+        xt = np.empty(nt)
+        steps = 0
+        status = 0
+        where = -1
+        dt = 0.0
+        while t < t_end:
+            if dt_fixed > 0.0:
+                dt = dt_fixed
+            else:
+                umax = 0.0
+                rmax = 0.0
+                for i in range(N):
+                    a = abs(u[i])
+                    if a > umax:
+                        umax = a
+                    if rho[i] > rmax:
+                        rmax = rho[i]
+                speed = umax + math.sqrt(kappa * rmax)
+                dt = cfl * dx / speed if speed > 0.0 else t_end - t
+            last = False
+            if t + dt >= t_end - 1e-12 * max(abs(t_end), dt):
+                dt = t_end - t
+                last = True
+            if dt < dt_min and not last:
+                status = 3
+                umax = -1.0
+                for i in range(N):
+                    if abs(u[i]) > umax:
+                        umax = abs(u[i])
+                        where = i
+                break
+            # Runge-Kutta stages
+            for st in range(s):
+                for i in range(N):
+                    yu[i] = u[i]
+                    yr[i] = rho[i]
+                for j in range(st):
+                    a = A[st, j]
+                    if a != 0.0:
+                        for i in range(N):
+                            yu[i] += dt * a * ku[j, i]
+                            yr[i] += dt * a * kr[j, i]
+                ts = t + c[st] * dt
+                fill_ghosts(yu, yr, ts, up, rp, G, bcl, bch, xlo, dx, bp)
+                if tracer_mode == 2 or (tracer_mode == 1 and st == 0):
+                    for n in range(nt):
+                        xt[n] = tracers[n]
+                        if tracer_mode == 2:
+                            for j in range(st):
+                                xt[n] += dt * A[st, j] * vt[j, n]
+                        vt[st, n] = interp(up, G, N, xlo, dx, xt[n])
+                rhs(ts, up, rp, G, N, xlo, dx, W, qz, qw, kp, grav, ep, mp, ku[st], kr[st])
+            if strain_limit > 0.0:
+                # gradient-catastrophe monitor on the start-of-step velocity (ghosts of stage 0
+                # are overwritten; recompute with one-sided ends)
+                worst = 0.0
+                for i in range(1, N - 1):
+                    comp = -(u[i + 1] - u[i - 1]) / (2.0 * dx) * dt
+                    if comp > worst:
+                        worst = comp
+                        where = i
+                if worst > strain_limit:
+                    status = 6
+                    break
+            for j in range(s):
+                bj = b[j]
+                if bj != 0.0:
+                    for i in range(N):
+                        u[i] += dt * bj * ku[j, i]
+                        rho[i] += dt * bj * kr[j, i]
+            if tracer_mode == 1:
+                for n in range(nt):
+                    tracers[n] += dt * vt[0, n]
+            elif tracer_mode == 2:
+                for n in range(nt):
+                    for j in range(s):
+                        tracers[n] += dt * b[j] * vt[j, n]
+            if nt > 0 and bcl == 1:
+                for n in range(nt):
+                    if tracers[n] < xlo:
+                        tracers[n] = xlo
+            t = t_end if last else t + dt
+            if filt:
+                fill_ghosts(u, rho, t, up, rp, G, bcl, bch, xlo, dx, bp)
+                moving_average(u, rho, up, rp, G)
+            steps += 1
+            for i in range(N):
+                if not (math.isfinite(u[i]) and math.isfinite(rho[i])):
+                    status = 1
+                    where = i
+                    break
+                if rho_max > 0.0 and rho[i] > rho_max:
+                    status = 2
+                    where = i
+                    break
+            if status != 0:
+                break
+            if top_tol > 0.0 and bch == 2:
+                for i in range(max(0, N - 1 - W), N):
+                    if rho[i] > top_tol:
+                        status = 5
+                        where = i
+                        break
+                if status != 0:
+                    break
+            if steps >= max_steps and t < t_end:
+                status = 4
+                break
+        return t, steps, status, where, dt
+
+    class Core:
+        pass
+
+    core = Core()
+    core.fill_ghosts = fill_ghosts
+    core.rhs = rhs
+    core.moving_average = moving_average
+    core.interp = interp
+    core.advance = advance
+    return core

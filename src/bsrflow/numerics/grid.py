@@ -1,0 +1,84 @@
+"""Uniform 1-D grids and boundary conditions.
+
+The grid is cell-centred: ``x_j = lower + (j + 1/2) Δx``, ``j = 0..N-1``, ``Δx = (upper-lower)/N``
+[m].  Boundary conditions act through ghost values beyond each end:
+
+``periodic``
+    ghosts wrap around; both ends must be periodic.
+``floor`` (lower end only)
+    an impenetrable wall at ``x = lower``.  Ghosts are mirror images: ρ is reflected evenly
+    and u oddly, ``ρ(lower - s) = ρ(lower + s)``, ``u(lower - s) = -u(lower + s)``.  The
+    interaction integral sees the image material, which moves towards the floor when the
+    real material does, so the floor pushes back through the kernel (seed-notes, problem 4).
+    The mass flux through the floor is zero and the moving average conserves mass.
+``vacuum``
+    an open end into empty space: ghost density 0, ghost velocity copied from the last
+    cell (the seed's (4.30): ρ_N = 0, u_N = u_{N-1}).  No mass enters; mass in the last cell
+    can leave.  The domain must be tall enough that the material never gets there (the
+    solver checks this and stops with an error naming the time if it does).
+``dirichlet``
+    ghost values (u, ρ) given by the model's ``boundary_values(t, x, p)`` function, e.g. an
+    exact solution as inflow data (verification Example A).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Grid1D", "BOUNDARY_CODES"]
+
+BOUNDARY_CODES = {"periodic": 0, "floor": 1, "vacuum": 2, "dirichlet": 3}
+
+
+@dataclass(frozen=True)
+class Grid1D:
+    """Uniform cell-centred grid on [lower, upper] [m] with ``n_cells`` cells and the
+    boundary conditions at each end (see module docstring)."""
+
+    lower: float
+    upper: float
+    n_cells: int
+    bc_lower: str = "periodic"
+    bc_upper: str = "periodic"
+
+    def __post_init__(self):
+        if not (np.isfinite(self.lower) and np.isfinite(self.upper) and self.upper > self.lower):
+            raise ValueError(f"grid bounds lower = {self.lower!r}, upper = {self.upper!r}: "
+                             "need finite values with upper > lower")
+        if int(self.n_cells) != self.n_cells or self.n_cells < 3:
+            raise ValueError(f"n_cells = {self.n_cells!r} is outside the valid range: integers >= 3")
+        for name, v in (("bc_lower", self.bc_lower), ("bc_upper", self.bc_upper)):
+            if v not in BOUNDARY_CODES:
+                raise ValueError(f"{name} = {v!r} is not one of {sorted(BOUNDARY_CODES)}")
+        if (self.bc_lower == "periodic") != (self.bc_upper == "periodic"):
+            raise ValueError("bc_lower and bc_upper must both be 'periodic' or neither")
+        if self.bc_upper == "floor":
+            raise ValueError("bc_upper = 'floor' is not supported: the floor is the lower end")
+
+    @property
+    def dx(self) -> float:
+        """Cell width Δx [m]."""
+        return (self.upper - self.lower) / self.n_cells
+
+    @property
+    def x(self) -> np.ndarray:
+        """Cell centres [m]."""
+        return self.lower + (np.arange(self.n_cells) + 0.5) * self.dx
+
+    @property
+    def length(self) -> float:
+        return self.upper - self.lower
+
+    @property
+    def codes(self) -> tuple[int, int]:
+        return BOUNDARY_CODES[self.bc_lower], BOUNDARY_CODES[self.bc_upper]
+
+    def cells_per(self, length: float) -> float:
+        """How many cells span ``length`` [m]."""
+        return length / self.dx
+
+    def to_dict(self) -> dict:
+        return {"lower": self.lower, "upper": self.upper, "n_cells": self.n_cells,
+                "bc_lower": self.bc_lower, "bc_upper": self.bc_upper}

@@ -1,0 +1,278 @@
+"""Driver of the 1-D semidiscrete BSR solver: scheme choice, output times, velocity jumps,
+monitors, and the error raised when a run stops early.
+
+Happy path::
+
+    from bsrflow import Grid1D, BSRModel, Scheme, Simulation, walton_braun
+    grid = Grid1D(0.0, 1.0, 200, "floor", "vacuum")
+    model = BSRModel(kernel=walton_braun(1e3, 0.1, 0.05), gravity=9.81)
+    sim = Simulation(model, grid, Scheme.preset("seed"))
+    result = sim.run(u0, rho0, t_end=1.0, save_every=0.01)
+"""
+
+from __future__ import annotations
+
+import time as _time
+from dataclasses import dataclass, field, asdict
+
+import numpy as np
+
+from ..physics.model import BSRModel, jit_user
+from .compiled import STATUS, make_core
+from .grid import Grid1D
+from .quadrature import QUADRATURES, quadrature_weights
+from .steppers import get_stepper
+
+__all__ = ["Scheme", "Simulation", "SimulationResult", "SimulationError"]
+
+
+@dataclass
+class Scheme:
+    """Numerical choices.
+
+    stepper : 'euler', 'heun', 'kutta3' (the seed's RK3, (4.17)-(4.24)), 'rk4'.
+    filter : apply the moving average (1/4, 1/2, 1/4) to u and ρ after every step.
+    quadrature : 'trapezoid' or 'boole' (see numerics.quadrature).
+    cfl : Courant number ν: Δt = ν Δx / (max|u| + c), c = sqrt(κ max ρ) the kernel's sound speed.
+    dt : fixed time step [s]; overrides cfl when given.
+    tracer_integrator : 'euler' (the seed's, first order) or 'rk' (the field's tableau).
+    """
+
+    stepper: str = "kutta3"
+    filter: bool = True
+    quadrature: str = "trapezoid"
+    cfl: float = 0.5
+    dt: float | None = None
+    tracer_integrator: str = "rk"
+    name: str = "custom"
+
+    def __post_init__(self):
+        get_stepper(self.stepper)
+        if self.quadrature not in QUADRATURES:
+            raise ValueError(f"quadrature = {self.quadrature!r} is not one of {QUADRATURES}")
+        if not (np.isfinite(self.cfl) and 0 < self.cfl <= 4):
+            raise ValueError(f"cfl = {self.cfl!r} is outside the valid range (0, 4]")
+        if self.dt is not None and not (np.isfinite(self.dt) and self.dt > 0):
+            raise ValueError(f"dt = {self.dt!r} is outside the valid range (0, inf) s")
+        if self.tracer_integrator not in ("euler", "rk"):
+            raise ValueError(f"tracer_integrator = {self.tracer_integrator!r} is not one of ('euler', 'rk')")
+
+    @classmethod
+    def preset(cls, name: str, **overrides) -> "Scheme":
+        """Named schemes. 'seed': Kutta's RK3 + moving average every step, trapezoid, ν = 0.5,
+        Euler tracers (the dissertation's choices)."""
+        presets = {
+            "seed": dict(stepper="kutta3", filter=True, quadrature="trapezoid", cfl=0.5,
+                         tracer_integrator="euler"),
+        }
+        if name not in presets:
+            raise ValueError(f"scheme = {name!r} is not one of {sorted(presets)}")
+        kw = dict(presets[name])
+        kw.update(overrides)
+        return cls(name=name, **kw)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass
+class SimulationResult:
+    """Saved snapshots of a run. Arrays have the time axis first."""
+
+    t: np.ndarray            # [s]
+    x: np.ndarray            # [m] cell centres (floor frame)
+    u: np.ndarray            # [m/s] velocity relative to the floor
+    rho: np.ndarray          # [kg/m]
+    tracers: np.ndarray      # [m] tracer positions relative to the floor, (nt, n_tracers)
+    floor: np.ndarray        # [m] floor position ϑ(t) in the laboratory frame
+    steps: int = 0
+    wall_time: float = 0.0
+    status: str = "ok"
+    info: dict = field(default_factory=dict)
+
+    def mass(self, dx: float) -> np.ndarray:
+        """Total mass Σ ρ Δx [kg] at each saved time."""
+        return self.rho.sum(axis=1) * dx
+
+    def kinetic_energy(self, dx: float) -> np.ndarray:
+        """Σ ½ ρ u² Δx [J] at each saved time (floor frame)."""
+        return 0.5 * (self.rho * self.u ** 2).sum(axis=1) * dx
+
+
+class SimulationError(RuntimeError):
+    """A run stopped early. ``.result`` holds every snapshot saved before the stop;
+    ``.time`` [s] and ``.position`` [m] say when and where."""
+
+    def __init__(self, message, result, time, position, status):
+        super().__init__(message)
+        self.result = result
+        self.time = time
+        self.position = position
+        self.status = status
+
+
+class Simulation:
+    """A BSR model on a grid with a scheme.
+
+    Parameters
+    ----------
+    model : :class:`bsrflow.physics.model.BSRModel`
+    grid : :class:`bsrflow.numerics.grid.Grid1D`; the kernel radius must be a whole number of
+        cells, at least 2 (or 0 for no interaction).
+    scheme : :class:`Scheme`
+    rho_max : stop when ρ exceeds this [kg/m] (0: no bound).
+    dt_min : stop when the CFL step falls below this [s].
+    strain_limit : stop when max(-u_x) Δt exceeds this (0: off).
+    top_tolerance : with a vacuum top, stop when ρ [kg/m] within the kernel radius of the top
+        exceeds this (0: off).
+    max_steps : stop after this many steps.
+    """
+
+    def __init__(self, model: BSRModel, grid: Grid1D, scheme: Scheme | None = None, *, rho_max=0.0,
+                 dt_min=1e-12, strain_limit=0.0, top_tolerance=0.0, max_steps=50_000_000):
+        self.model = model
+        self.grid = grid
+        self.scheme = scheme or Scheme.preset("seed")
+        R = model.kernel.radius
+        Wf = R / grid.dx
+        W = int(round(Wf))
+        if R > 0 and (abs(Wf - W) > 1e-6 * max(1.0, Wf) or W < 2):
+            raise ValueError(
+                f"kernel radius {R!r} m must be a whole number (>= 2) of cells of width dx = {grid.dx!r} m; "
+                f"it is {Wf:.6g} cells (choose n_cells so that radius/dx is an integer >= 2)")
+        if grid.bc_lower == "periodic" and W >= grid.n_cells:
+            raise ValueError(f"n_cells = {grid.n_cells} must exceed the kernel radius in cells ({W}) "
+                             "for a periodic grid")
+        self.W = W
+        self.qz, self.qw = quadrature_weights(W, grid.dx, self.scheme.quadrature)
+        self.tableau = get_stepper(self.scheme.stepper)
+        self.kappa = model.kernel.stiffness_moment()
+        self.rho_max = float(rho_max)
+        self.dt_min = float(dt_min)
+        self.strain_limit = float(strain_limit)
+        self.top_tolerance = float(top_tolerance)
+        self.max_steps = int(max_steps)
+        self.core = make_core(model.kernel.compiled, jit_user(model.external), model.motion.fn,
+                              jit_user(model.boundary_values))
+
+    # -- the pieces, exposed for tests and analysis ------------------------------------------
+    def advance(self, u, rho, t, t_end, tracers=None, max_steps=None):
+        """Advance (u, ρ, tracers) in place from t to t_end (no jumps, no saving).
+        Returns (t, steps, status, where, dt_last)."""
+        g = self.grid
+        s = self.scheme
+        bcl, bch = g.codes
+        tr = np.zeros(0) if tracers is None else tracers
+        mode = 0 if tracers is None or len(tracers) == 0 else (1 if s.tracer_integrator == "euler" else 2)
+        tb = self.tableau
+        return self.core.advance(
+            u, rho, float(t), float(t_end), float(s.dt or 0.0), float(s.cfl), float(self.kappa),
+            tb.a, tb.b, tb.c, bool(s.filter), bcl, bch, float(g.lower), float(g.dx), self.W, self.qz,
+            self.qw, self.model.kernel.params, float(self.model.gravity), self.model.external_params,
+            self.model.motion.params, self.model.boundary_params, self.dt_min, self.rho_max,
+            int(max_steps or self.max_steps), self.strain_limit, self.top_tolerance, tr, mode)
+
+    def rhs(self, u, rho, t):
+        """Semi-discrete right-hand side (du/dt, dρ/dt) at time t."""
+        g = self.grid
+        G = max(self.W, 1)
+        N = g.n_cells
+        up = np.empty(N + 2 * G)
+        rp = np.empty(N + 2 * G)
+        du = np.empty(N)
+        dr = np.empty(N)
+        bcl, bch = g.codes
+        self.core.fill_ghosts(np.ascontiguousarray(u, float), np.ascontiguousarray(rho, float), float(t),
+                              up, rp, G, bcl, bch, float(g.lower), float(g.dx), self.model.boundary_params)
+        self.core.rhs(float(t), up, rp, G, N, float(g.lower), float(g.dx), self.W, self.qz, self.qw,
+                      self.model.kernel.params, float(self.model.gravity), self.model.external_params,
+                      self.model.motion.params, du, dr)
+        return du, dr
+
+    # -- a whole run --------------------------------------------------------------------------
+    def run(self, u0, rho0, t_end, *, t_start=0.0, save_every=None, save_times=None, tracers=None,
+            observers=(), progress=None) -> SimulationResult:
+        """Integrate from t_start to t_end [s], saving snapshots.
+
+        u0 [m/s], rho0 [kg/m]: initial fields on the grid (floor frame).
+        save_every [s] or save_times [s]: when to save (default: start and end only).
+        tracers: initial tracer positions [m] (floor frame), moved with the velocity field.
+        observers: callables ``obs(t, u, rho, tracers)`` called at every save (e.g. a writer),
+            so output written before a failure is kept.
+        progress: callable ``progress(t)`` called at every save.
+        Raises :class:`SimulationError` (with ``.result``) if a monitor stops the run.
+        """
+        g = self.grid
+        u = np.array(u0, dtype=float, copy=True).reshape(-1)
+        rho = np.array(rho0, dtype=float, copy=True).reshape(-1)
+        for name, arr in (("u0", u), ("rho0", rho)):
+            if arr.shape != (g.n_cells,):
+                raise ValueError(f"{name} has shape {arr.shape}; expected ({g.n_cells},) to match the grid")
+            if not np.all(np.isfinite(arr)):
+                raise ValueError(f"{name} contains non-finite values")
+        if np.any(rho < 0):
+            raise ValueError(f"rho0 has negative values (min {rho.min():.3g} kg/m); density must be >= 0")
+        if not (np.isfinite(t_end) and t_end > t_start):
+            raise ValueError(f"t_end = {t_end!r} must be finite and greater than t_start = {t_start!r}")
+        tr = np.zeros(0) if tracers is None else np.array(tracers, dtype=float, copy=True).reshape(-1)
+        if save_times is None:
+            if save_every is None:
+                save_times = np.array([t_start, t_end])
+            else:
+                if not (save_every > 0):
+                    raise ValueError(f"save_every = {save_every!r} is outside the valid range (0, inf) s")
+                n = int(np.floor((t_end - t_start) / save_every + 1e-9))
+                save_times = t_start + save_every * np.arange(n + 1)
+                if save_times[-1] < t_end - 1e-12 * max(1.0, abs(t_end)):
+                    save_times = np.append(save_times, t_end)
+        save_times = np.unique(np.clip(np.asarray(save_times, float), t_start, t_end))
+        jumps = self.model.motion.jumps_between(t_start, t_end)
+        events = sorted(set(save_times.tolist()) | {tj for tj, _ in jumps})
+
+        ts, us, rs, trs, fl = [], [], [], [], []
+        motion = self.model.motion
+
+        def save(t):
+            ts.append(t)
+            us.append(u.copy())
+            rs.append(rho.copy())
+            trs.append(tr.copy())
+            fl.append(motion.state(t)[0])
+            for obs in observers:
+                obs(t, u, rho, tr)
+            if progress is not None:
+                progress(t)
+
+        def result(status):
+            return SimulationResult(np.array(ts), g.x, np.array(us), np.array(rs),
+                                    np.array(trs).reshape(len(ts), tr.size), np.array(fl), total_steps,
+                                    _time.perf_counter() - wall0, status,
+                                    {"scheme": self.scheme.to_dict(), "grid": g.to_dict(),
+                                     "model": self.model.to_dict()})
+
+        wall0 = _time.perf_counter()
+        total_steps = 0
+        t = float(t_start)
+        save_set = set(save_times.tolist())
+        jump_at = {}
+        for tj, dv in jumps:
+            jump_at[tj] = jump_at.get(tj, 0.0) + dv
+        for ev in events:
+            if ev > t:
+                t_new, steps, status, where, dt_last = self.advance(u, rho, t, ev, tr,
+                                                                    max_steps=self.max_steps - total_steps)
+                total_steps += steps
+                if status != 0:
+                    x_where = float(g.x[where]) if 0 <= where < g.n_cells else float("nan")
+                    msg = (f"simulation stopped at t = {t_new:.6g} s near x = {x_where:.6g} m "
+                           f"(cell {where}): {STATUS[status]}; last dt = {dt_last:.3g} s, "
+                           f"{total_steps} steps; {len(ts)} snapshot(s) up to t = "
+                           f"{(ts[-1] if ts else t_start):.6g} s were kept")
+                    raise SimulationError(msg, result(STATUS[status]), t_new, x_where, status)
+                t = ev
+            if ev in jump_at:
+                # the floor velocity jumps by dv: the velocity relative to the floor by -dv (3.15)
+                u -= jump_at[ev]
+            if ev in save_set:
+                save(ev)
+        return result("ok")
