@@ -25,7 +25,8 @@ def _model(bc):
                     external_params=[0.3, 0.5], boundary_values=_inflow, boundary_params=[0.2, 3.0])
 
 
-CASES = [("periodic", "periodic"), ("floor", "vacuum"), ("dirichlet", "dirichlet"), ("vacuum", "vacuum")]
+CASES = [("periodic", "periodic"), ("floor", "vacuum"), ("mirror", "vacuum"), ("dirichlet", "dirichlet"),
+         ("vacuum", "vacuum")]
 
 
 def _relerr(a, b):
@@ -74,3 +75,20 @@ def test_tracers_euler_and_rk_match_formula(rng):
         tr = np.array([0.2, 0.55])
         sim.advance(u, rho, 0.0, 0.1, tracers=tr)
         assert np.allclose(tr, [0.23, 0.58], atol=1e-12)
+
+
+def test_velocity_extension_matches_reference(rng):
+    """Vacuum cells (ρ below the threshold) take the velocity of the nearest material cell."""
+    grid = Grid1D(0.0, 1.0, 60, "floor", "vacuum")
+    sim = Simulation(_model(("floor", "vacuum")), grid, Scheme(stepper="kutta3", filter=True, dt=1e-3),
+                     vacuum_density=1.0)
+    ref = ReferenceScheme(sim)
+    u = rng.normal(0.0, 0.5, grid.n_cells)
+    rho = rng.uniform(0.0, 3.0, grid.n_cells)
+    rho[20:35] = 0.0                     # a gap in the material and vacuum cells above
+    rho[50:] = 0.0
+    un, rn = ref.run_fixed(u.copy(), rho.copy(), 0.0, 1e-3, 2)
+    uc, rc = u.copy(), rho.copy()
+    sim.advance(uc, rc, 0.0, 2e-3)
+    assert _relerr(uc, un) < 1e-12
+    assert _relerr(rc, rn) < 1e-12

@@ -1,2 +1,21 @@
-"""bsrflow: granular flows with the BSR integro-PDE model."""
+"""bsrflow: granular flows with the BSR (Blackmore-Samulyak-Rosato) integro-PDE model.
+
+Physics (``bsrflow.physics``: kernels, applied motions, the model, scenarios, DEM), numerics
+(``bsrflow.numerics``: grids, quadrature, steppers, the compiled loop) and tools
+(``bsrflow.analysis``, ``bsrflow.io``, ``bsrflow.cli``) are kept apart.  Every quantity is
+in SI units.
+"""
+
 __version__ = "0.1.0"
+
+from .numerics.grid import Grid1D  # noqa: E402
+from .numerics.solver import Scheme, Simulation, SimulationError, SimulationResult  # noqa: E402
+from .physics.kernels import Kernel, walton_braun, walton_braun_from_contact, zero_kernel  # noqa: E402
+from .physics.model import BSRModel  # noqa: E402
+from .physics.motion import AppliedMotion, HalfSineTaps, Rest, SinusoidalVibration  # noqa: E402
+
+__all__ = [
+    "Grid1D", "Scheme", "Simulation", "SimulationError", "SimulationResult", "Kernel", "walton_braun",
+    "walton_braun_from_contact", "zero_kernel", "BSRModel", "AppliedMotion", "HalfSineTaps", "Rest",
+    "SinusoidalVibration", "__version__",
+]

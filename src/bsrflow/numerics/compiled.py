@@ -21,7 +21,7 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["make_core", "STATUS"]
+__all__ = ["make_core", "make_direct_integral", "direct_integral", "STATUS"]
 
 STATUS = {
     0: "ok",
@@ -34,16 +34,47 @@ STATUS = {
 }
 
 
-@functools.lru_cache(maxsize=64)
-def make_core(kernel_fn, external_fn, motion_fn, boundary_fn):
-    """Build the compiled functions for one combination of physics functions.
+def make_direct_integral(kernel_fn):
+    """The interaction integral by the direct quadrature sum: (2W+1) kernel calls per cell.
 
-    ``kernel_fn(z, u_here, u_there, p)``, ``external_fn(t, x, u, p)``,
-    ``boundary_fn(t, x, p) -> (u, rho)`` are numba-compiled functions;
-    ``motion_fn(t, p) -> (ϑ, ϑ', ϑ'')`` likewise.
-    Returns a namespace with ``fill_ghosts``, ``rhs``, ``moving_average`` and ``advance``.
+    ``integral(up, rp, G, N, W, qz, qw, kp, out)`` writes
+    out[i] = Σ_k qw_k ρ_{i+k} Θ(z_k, u_i, u_{i+k}; kp) from padded arrays.
     """
     K = kernel_fn
+
+    @numba.njit(cache=False)
+    def integral(up, rp, G, N, W, qz, qw, kp, out):
+        for i in range(N):
+            ii = G + i
+            ui = up[ii]
+            s = 0.0
+            for k in range(-W, W + 1):
+                s += qw[k + W] * rp[ii + k] * K(qz[k + W], ui, up[ii + k], kp)
+            out[i] = s
+
+    return integral
+
+
+_DIRECT: dict = {}
+
+
+def direct_integral(kernel_fn):
+    if kernel_fn not in _DIRECT:
+        _DIRECT[kernel_fn] = make_direct_integral(kernel_fn)
+    return _DIRECT[kernel_fn]
+
+
+@functools.lru_cache(maxsize=64)
+def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
+    """Build the compiled functions for one combination of physics functions.
+
+    ``integral_fn(up, rp, G, N, W, qz, qw, kp, out)`` computes the interaction integral at
+    every cell (see :func:`make_direct_integral`; a faster algorithm for a particular kernel
+    can be substituted), ``external_fn(t, x, u, p)``, ``boundary_fn(t, x, p) -> (u, rho)``
+    and ``motion_fn(t, p) -> (ϑ, ϑ', ϑ'')`` are numba-compiled functions.
+    Returns a namespace with ``fill_ghosts``, ``rhs``, ``moving_average`` and ``advance``.
+    """
+    INTEGRAL = integral_fn
     E = external_fn
     M = motion_fn
     B = boundary_fn
@@ -62,11 +93,17 @@ def make_core(kernel_fn, external_fn, motion_fn, boundary_fn):
                 m = (-g) % N
                 up[lo] = u[m]
                 rp[lo] = rho[m]
-            elif bcl == 1:
+            elif bcl == 1 or bcl == 4:
                 m = g - 1
                 if m < N:
                     up[lo] = -u[m]
-                    rp[lo] = rho[m]
+                    if bcl == 4:
+                        rp[lo] = rho[m]
+                    else:
+                        # point reflection through the extrapolated wall density
+                        rw = 1.5 * rho[0] - 0.5 * rho[1]
+                        r = 2.0 * rw - rho[m]
+                        rp[lo] = r if r > 0.0 else 0.0
                 else:
                     up[lo] = 0.0
                     rp[lo] = 0.0
@@ -90,29 +127,61 @@ def make_core(kernel_fn, external_fn, motion_fn, boundary_fn):
                 rp[hi] = rr
 
     @numba.njit(cache=False)
-    def rhs(t, up, rp, G, N, xlo, dx, W, qz, qw, kp, grav, ep, mp, du, dr):
+    def rhs(t, up, rp, G, N, xlo, dx, W, qz, qw, kp, grav, ep, mp, du, dr, bcl):
         """Semi-discrete right-hand side (4.13)-(4.14) at every cell from padded arrays."""
         frame = M(t, mp)[2]
         h = 0.5 / dx
+        INTEGRAL(up, rp, G, N, W, qz, qw, kp, du)
         for i in range(N):
             ii = G + i
             ui = up[ii]
             x = xlo + (i + 0.5) * dx
-            acc = -ui * (up[ii + 1] - up[ii - 1]) * h + E(t, x, ui, ep) - grav - frame
-            s = 0.0
-            for k in range(-W, W + 1):
-                s += qw[k + W] * rp[ii + k] * K(qz[k + W], ui, up[ii + k], kp)
-            du[i] = acc + s
+            du[i] += -ui * (up[ii + 1] - up[ii - 1]) * h + E(t, x, ui, ep) - grav - frame
             dr[i] = -(rp[ii + 1] * up[ii + 1] - rp[ii - 1] * up[ii - 1]) * h
+        if bcl == 1:
+            # the mass flux through the floor uses the even image ρ_{-1} = ρ_0 (zero flux, exact
+            # mass conservation); the point-reflected images serve the interaction integral only
+            dr[0] = -(rp[G + 1] * up[G + 1] - rp[G] * up[G - 1]) * h
 
     @numba.njit(cache=False)
-    def moving_average(u, rho, up, rp, G):
-        """Near-neighbour average (1/4, 1/2, 1/4) of (5.7), n = 1, from padded arrays."""
+    def moving_average(u, rho, up, rp, G, bcl):
+        """Near-neighbour average (1/4, 1/2, 1/4) of (5.7), n = 1, from padded arrays.
+        At a floor the density uses the even image (mass-conserving)."""
         N = u.size
         for i in range(N):
             ii = G + i
             u[i] = 0.25 * (up[ii - 1] + 2.0 * up[ii] + up[ii + 1])
             rho[i] = 0.25 * (rp[ii - 1] + 2.0 * rp[ii] + rp[ii + 1])
+        if bcl == 1:
+            rho[0] = 0.25 * (3.0 * rp[G] + rp[G + 1])
+
+    @numba.njit(cache=False)
+    def extend_velocity(u, rho, thr):
+        """Velocity extension into vacuum: every cell with ρ < thr takes the velocity of the
+        nearest cell with ρ >= thr (the lower one on a tie).  Velocity has no meaning where
+        there is no material; without this, the vacuum above a column free-falls (u = -g t)
+        and the central differences and the moving average drag that velocity into the
+        material."""
+        N = u.size
+        last = -1
+        dist_lo = np.full(N, N + 1)
+        src_lo = np.full(N, -1)
+        for i in range(N):
+            if rho[i] >= thr:
+                last = i
+            elif last >= 0:
+                dist_lo[i] = i - last
+                src_lo[i] = last
+        nxt = -1
+        for i in range(N - 1, -1, -1):
+            if rho[i] >= thr:
+                nxt = i
+            elif nxt >= 0 and nxt - i < dist_lo[i]:
+                dist_lo[i] = nxt - i
+                src_lo[i] = nxt
+        for i in range(N):
+            if rho[i] < thr and src_lo[i] >= 0:
+                u[i] = u[src_lo[i]]
 
     @numba.njit(cache=False)
     def interp(up, G, N, xlo, dx, p):
@@ -129,7 +198,7 @@ def make_core(kernel_fn, external_fn, motion_fn, boundary_fn):
     @numba.njit(cache=False)
     def advance(u, rho, t, t_end, dt_fixed, cfl, kappa, A, b, c, filt, bcl, bch, xlo, dx, W, qz, qw,
                 kp, grav, ep, mp, bp, dt_min, rho_max, max_steps, strain_limit, top_tol,
-                tracers, tracer_mode):
+                tracers, tracer_mode, vac_thr):
         """Advance (u, rho, tracers) in place from t to t_end.
 
         dt: ``dt_fixed`` if > 0, else cfl Δx / (max|u| + sqrt(κ max ρ)); the last step is
@@ -199,7 +268,7 @@ def make_core(kernel_fn, external_fn, motion_fn, boundary_fn):
                             for j in range(st):
                                 xt[n] += dt * A[st, j] * vt[j, n]
                         vt[st, n] = interp(up, G, N, xlo, dx, xt[n])
-                rhs(ts, up, rp, G, N, xlo, dx, W, qz, qw, kp, grav, ep, mp, ku[st], kr[st])
+                rhs(ts, up, rp, G, N, xlo, dx, W, qz, qw, kp, grav, ep, mp, ku[st], kr[st], bcl)
             if strain_limit > 0.0:
                 # gradient-catastrophe monitor on the start-of-step velocity (ghosts of stage 0
                 # are overwritten; recompute with one-sided ends)
@@ -225,14 +294,16 @@ def make_core(kernel_fn, external_fn, motion_fn, boundary_fn):
                 for n in range(nt):
                     for j in range(s):
                         tracers[n] += dt * b[j] * vt[j, n]
-            if nt > 0 and bcl == 1:
+            if nt > 0 and (bcl == 1 or bcl == 4):
                 for n in range(nt):
-                    if tracers[n] < xlo:
+                    if tracers[n] < xlo:  # floor
                         tracers[n] = xlo
             t = t_end if last else t + dt
+            if vac_thr > 0.0:
+                extend_velocity(u, rho, vac_thr)
             if filt:
                 fill_ghosts(u, rho, t, up, rp, G, bcl, bch, xlo, dx, bp)
-                moving_average(u, rho, up, rp, G)
+                moving_average(u, rho, up, rp, G, bcl)
             steps += 1
             for i in range(N):
                 if not (math.isfinite(u[i]) and math.isfinite(rho[i])):
@@ -266,5 +337,6 @@ def make_core(kernel_fn, external_fn, motion_fn, boundary_fn):
     core.rhs = rhs
     core.moving_average = moving_average
     core.interp = interp
+    core.extend_velocity = extend_velocity
     core.advance = advance
     return core

@@ -6,11 +6,20 @@ The grid is cell-centred: ``x_j = lower + (j + 1/2) Δx``, ``j = 0..N-1``, ``Δx
 ``periodic``
     ghosts wrap around; both ends must be periodic.
 ``floor`` (lower end only)
-    an impenetrable wall at ``x = lower``.  Ghosts are mirror images: ρ is reflected evenly
-    and u oddly, ``ρ(lower - s) = ρ(lower + s)``, ``u(lower - s) = -u(lower + s)``.  The
-    interaction integral sees the image material, which moves towards the floor when the
-    real material does, so the floor pushes back through the kernel (seed-notes, problem 4).
-    The mass flux through the floor is zero and the moving average conserves mass.
+    an impenetrable, supporting wall at ``x = lower``.  The velocity is reflected oddly,
+    ``u(lower - s) = -u(lower + s)`` (images approach the floor when the material does, so the
+    kernel's loading/unloading sees the impact), and for the interaction integral the density
+    is reflected point-symmetrically through its value extrapolated to the wall,
+    ``ρ(lower - s) = max(0, 2 ρ_w - ρ(lower + s))`` with ``ρ_w = (3ρ_0 - ρ_1)/2``: the images
+    continue the density gradient, so the floor pushes back through the kernel exactly as the
+    material below a point in a resting column would, and a hydrostatic column is supported.
+    The mass flux through the floor is zero (the flux and the moving average use the even
+    image ρ_{-1} = ρ_0), so mass is conserved exactly.
+``mirror`` (lower end only)
+    plain mirror images, ρ even and u odd, also in the integral.  By symmetry the interaction
+    force vanishes at the wall, so the material within the kernel radius of the floor is not
+    held up against gravity: a resting column sinks into a dense wall layer.  Kept for
+    comparison (seed-notes problem 4 suggested it; the measurement rules it out for columns).
 ``vacuum``
     an open end into empty space: ghost density 0, ghost velocity copied from the last
     cell (the seed's (4.30): ρ_N = 0, u_N = u_{N-1}).  No mass enters; mass in the last cell
@@ -29,7 +38,7 @@ import numpy as np
 
 __all__ = ["Grid1D", "BOUNDARY_CODES"]
 
-BOUNDARY_CODES = {"periodic": 0, "floor": 1, "vacuum": 2, "dirichlet": 3}
+BOUNDARY_CODES = {"periodic": 0, "floor": 1, "vacuum": 2, "dirichlet": 3, "mirror": 4}
 
 
 @dataclass(frozen=True)
@@ -54,8 +63,8 @@ class Grid1D:
                 raise ValueError(f"{name} = {v!r} is not one of {sorted(BOUNDARY_CODES)}")
         if (self.bc_lower == "periodic") != (self.bc_upper == "periodic"):
             raise ValueError("bc_lower and bc_upper must both be 'periodic' or neither")
-        if self.bc_upper == "floor":
-            raise ValueError("bc_upper = 'floor' is not supported: the floor is the lower end")
+        if self.bc_upper in ("floor", "mirror"):
+            raise ValueError(f"bc_upper = {self.bc_upper!r} is not supported: the floor is the lower end")
 
     @property
     def dx(self) -> float:

@@ -36,11 +36,14 @@ class ReferenceScheme:
         p = self.model.boundary_params
         if g.bc_lower == "periodic":
             ul, rl = u[(-gi) % N], rho[(-gi) % N]
-        elif g.bc_lower == "floor":
+        elif g.bc_lower in ("floor", "mirror"):
             m = gi - 1
             inside = m < N
             ul = np.where(inside, -u[np.minimum(m, N - 1)], 0.0)
             rl = np.where(inside, rho[np.minimum(m, N - 1)], 0.0)
+            if g.bc_lower == "floor":
+                rw = 1.5 * rho[0] - 0.5 * rho[1]
+                rl = np.where(inside, np.maximum(2.0 * rw - rl, 0.0), 0.0)
         elif g.bc_lower == "vacuum":
             ul, rl = np.full(G, u[0]), np.zeros(G)
         else:
@@ -72,13 +75,19 @@ class ReferenceScheme:
             integral += self.qw[k + W] * rp[sl] * m.kernel(self.qz[k + W], u, up[sl])
         du = du + integral
         dr = -(rp[right] * up[right] - rp[left] * up[left]) / (2 * g.dx)
+        if g.bc_lower == "floor":
+            # flux through the floor with the even image (see grid.py)
+            dr[0] = -(rp[G + 1] * up[G + 1] - rp[G] * up[G - 1]) / (2 * g.dx)
         return du, dr
 
     def moving_average(self, u, rho, t):
         up, rp = self.pad(u, rho, t)
         G, N = self.G, self.grid.n_cells
         avg = lambda a: 0.25 * (a[G - 1:G + N - 1] + 2 * a[G:G + N] + a[G + 1:G + N + 1])
-        return avg(up), avg(rp)
+        ru = avg(rp)
+        if self.grid.bc_lower == "floor":
+            ru[0] = 0.25 * (3.0 * rho[0] + rho[1])
+        return avg(up), ru
 
     def step(self, u, rho, t, dt):
         """One whole step (all stages, then the moving average if the scheme has it)."""
@@ -92,6 +101,19 @@ class ReferenceScheme:
             kr.append(dr)
         un = u + dt * sum(tb.b[j] * ku[j] for j in range(tb.stages))
         rn = rho + dt * sum(tb.b[j] * kr[j] for j in range(tb.stages))
+        thr = self.sim.vacuum_density
+        if thr > 0:
+            mat = np.flatnonzero(rn >= thr)
+            if mat.size:
+                vac = np.flatnonzero(rn < thr)
+                # nearest material cell, the lower one on a tie
+                pos = np.searchsorted(mat, vac)
+                lo = mat[np.clip(pos - 1, 0, mat.size - 1)]
+                hi = mat[np.clip(pos, 0, mat.size - 1)]
+                dlo = np.where(pos > 0, vac - lo, np.iinfo(np.int64).max)
+                dhi = np.where(pos < mat.size, hi - vac, np.iinfo(np.int64).max)
+                un = un.copy()
+                un[vac] = un[np.where(dhi < dlo, hi, lo)]
         if self.sim.scheme.filter:
             un, rn = self.moving_average(un, rn, t + dt)
         return un, rn

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field, asdict
 import numpy as np
 
 from ..physics.model import BSRModel, jit_user
-from .compiled import STATUS, make_core
+from .compiled import STATUS, direct_integral, make_core
 from .grid import Grid1D
 from .quadrature import QUADRATURES, quadrature_weights
 from .steppers import get_stepper
@@ -58,18 +58,18 @@ class Scheme:
             raise ValueError(f"tracer_integrator = {self.tracer_integrator!r} is not one of ('euler', 'rk')")
 
     @classmethod
-    def preset(cls, name: str, **overrides) -> "Scheme":
+    def preset(cls, preset_name: str, **overrides) -> "Scheme":
         """Named schemes. 'seed': Kutta's RK3 + moving average every step, trapezoid, ν = 0.5,
         Euler tracers (the dissertation's choices)."""
         presets = {
             "seed": dict(stepper="kutta3", filter=True, quadrature="trapezoid", cfl=0.5,
                          tracer_integrator="euler"),
         }
-        if name not in presets:
-            raise ValueError(f"scheme = {name!r} is not one of {sorted(presets)}")
-        kw = dict(presets[name])
+        if preset_name not in presets:
+            raise ValueError(f"scheme = {preset_name!r} is not one of {sorted(presets)}")
+        kw = dict(presets[preset_name], name=preset_name)
         kw.update(overrides)
-        return cls(name=name, **kw)
+        return cls(**kw)
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -126,10 +126,16 @@ class Simulation:
     top_tolerance : with a vacuum top, stop when ρ [kg/m] within the kernel radius of the top
         exceeds this (0: off).
     max_steps : stop after this many steps.
+    vacuum_density : cells with ρ below this [kg/m] are vacuum: after every step their velocity
+        is replaced by that of the nearest material cell (0: off).  See
+        ``compiled.extend_velocity``.
+    integral_fn : compiled whole-array interaction integral (default: the direct quadrature
+        sum of the kernel, :func:`bsrflow.numerics.compiled.make_direct_integral`).
     """
 
     def __init__(self, model: BSRModel, grid: Grid1D, scheme: Scheme | None = None, *, rho_max=0.0,
-                 dt_min=1e-12, strain_limit=0.0, top_tolerance=0.0, max_steps=50_000_000):
+                 dt_min=1e-12, strain_limit=0.0, top_tolerance=0.0, max_steps=50_000_000,
+                 vacuum_density=0.0, integral_fn=None):
         self.model = model
         self.grid = grid
         self.scheme = scheme or Scheme.preset("seed")
@@ -152,7 +158,11 @@ class Simulation:
         self.strain_limit = float(strain_limit)
         self.top_tolerance = float(top_tolerance)
         self.max_steps = int(max_steps)
-        self.core = make_core(model.kernel.compiled, jit_user(model.external), model.motion.fn,
+        if not (np.isfinite(vacuum_density) and vacuum_density >= 0):
+            raise ValueError(f"vacuum_density = {vacuum_density!r} is outside the valid range [0, inf) kg/m")
+        self.vacuum_density = float(vacuum_density)
+        integral = integral_fn if integral_fn is not None else direct_integral(model.kernel.compiled)
+        self.core = make_core(integral, jit_user(model.external), model.motion.fn,
                               jit_user(model.boundary_values))
 
     # -- the pieces, exposed for tests and analysis ------------------------------------------
@@ -170,7 +180,8 @@ class Simulation:
             tb.a, tb.b, tb.c, bool(s.filter), bcl, bch, float(g.lower), float(g.dx), self.W, self.qz,
             self.qw, self.model.kernel.params, float(self.model.gravity), self.model.external_params,
             self.model.motion.params, self.model.boundary_params, self.dt_min, self.rho_max,
-            int(max_steps or self.max_steps), self.strain_limit, self.top_tolerance, tr, mode)
+            int(max_steps or self.max_steps), self.strain_limit, self.top_tolerance, tr, mode,
+            self.vacuum_density)
 
     def rhs(self, u, rho, t):
         """Semi-discrete right-hand side (du/dt, dρ/dt) at time t."""
@@ -186,7 +197,7 @@ class Simulation:
                               up, rp, G, bcl, bch, float(g.lower), float(g.dx), self.model.boundary_params)
         self.core.rhs(float(t), up, rp, G, N, float(g.lower), float(g.dx), self.W, self.qz, self.qw,
                       self.model.kernel.params, float(self.model.gravity), self.model.external_params,
-                      self.model.motion.params, du, dr)
+                      self.model.motion.params, du, dr, bcl)
         return du, dr
 
     # -- a whole run --------------------------------------------------------------------------

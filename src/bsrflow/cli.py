@@ -1,0 +1,56 @@
+"""Command-line interface: ``bsrflow <command> [options]``.
+
+Each command lives in its own module that defines ``add_parser(subparsers)``; the parser it
+adds sets ``func(args) -> int``.  Exit codes: 0 success, 2 invalid input (one line on
+stderr naming the problem), 3 a simulation stopped early (the message says when and where;
+outputs written so far are kept), 1 anything unexpected.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from . import __version__
+
+# (module defining add_parser) -- one line per command
+COMMAND_MODULES = [
+    "bsrflow.analysis.verify",
+]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="bsrflow",
+        description="Granular flows with the BSR integro-PDE model (Blackmore-Samulyak-Rosato).")
+    parser.add_argument("--version", action="version", version=f"bsrflow {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name in COMMAND_MODULES:
+        importlib.import_module(name).add_parser(sub)
+    return parser
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    from .numerics.solver import SimulationError
+    try:
+        return int(args.func(args) or 0)
+    except SimulationError as exc:
+        print(f"bsrflow {args.command}: {exc}", file=sys.stderr)
+        return 3
+    except (ValueError, FileNotFoundError) as exc:
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        print(f"bsrflow {args.command}: error: {msg}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"bsrflow {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

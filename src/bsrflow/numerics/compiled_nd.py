@@ -1,0 +1,353 @@
+"""The compiled (numba, parallel) time loop of the 2-D / 3-D semidiscrete BSR scheme.
+
+Layout.  Every run uses three internal axes (x, y, z), z vertical; a 2-D run is the x-z plane
+with n_y = 1, no ghost layers in y, no y differences and u_y ≡ 0.  Arrays are C-ordered:
+u (3, n_x, n_y, n_z) [m/s], ρ (n_x, n_y, n_z) [kg/m^n]; the padded copies carry G ghost layers
+on each side of the active axes (see :mod:`bsrflow.numerics.grid_nd`).
+
+One call of ``advance`` runs whole steps without returning to Python: every Runge-Kutta stage
+fills the ghosts (per-axis index maps, so corner ghosts are images in every direction),
+evaluates the right-hand side, the stages are combined, the moving average is applied, and
+the monitors are checked.  The right-hand side at cell j is
+
+    du/dt = -Σ_a u_a D_a u - (g + ϑ''(t)) e_z + Σ_o w_o ρ_{j+o} Θ(c_o, u_j, u_{j+o}),
+    dρ/dt = -Σ_a D_a(ρ u_a),       D_a q_j = (q_{j+e_a} - q_{j-e_a}) / (2Δx)
+
+(central differences as (4.19)-(4.24) and section 5.2; ball quadrature of grid_nd).
+
+Moving average (switchable): mode 1 is the seed's near-neighbour average (5.7),
+NA(q_j) = q_j/2 + (1/(4n)) Σ_a (q_{j+e_a} + q_{j-e_a}); mode 2 is the tensor product of the 1-D
+average (1/4, 1/2, 1/4) along each axis (a 3^n-point stencil).  For a state that does not vary
+horizontally mode 2 reduces to the 1-D average exactly, while (5.7) reduces to the weaker
+average (1/(4n), 1 - 1/(2n), 1/(4n)) in z.
+
+Parallelism and determinism.  All cell loops are ``prange`` over the x index; every cell's value
+(including its whole quadrature sum, in a fixed order) is computed by one thread, and the only
+cross-cell reductions (max |u|, max ρ for the time step) are exact maxima taken serially over
+per-row results.  Results are therefore bitwise independent of scheduling and thread count.
+
+Exact horizontal symmetry.  The ball table is stored as one half: offsets o with (o_x, o_y)
+lexicographically positive, plus the vertical column (o_x = o_y = 0).  The partner
+(-o_x, -o_y, o_z) is evaluated next to it and the pair's contribution is added as one number, so
+for a state uniform in x and y with u_x = u_y = 0 the horizontal components cancel exactly and
+the horizontal velocity stays exactly zero (needed for the embedding test).
+
+Status codes: :data:`bsrflow.numerics.compiled.STATUS` (codes 0-5; 6 is not used in n-D).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numba
+import numpy as np
+from numba import prange
+
+__all__ = ["make_core_nd"]
+
+
+@functools.lru_cache(maxsize=32)
+def make_core_nd(kernel_fn, motion_fn):
+    """Build the compiled n-D functions for one (kernel, motion) pair of numba functions.
+
+    Returns a namespace with ``fill_ghosts``, ``rhs``, ``moving_average`` and ``advance``.
+    Everything else (tableau, boundary maps, quadrature table, parameters) is runtime data.
+    """
+    K = kernel_fn
+    M = motion_fn
+
+    @numba.njit(parallel=True, cache=False)
+    def fill_ghosts(u, rho, up, rp, sx, sy, sz, gx, gy, gz, kx, ky, kz):
+        """Padded copies: up[c, p, q, r] = sign_c · u[c, sx[p], sy[q], sz[r]], rp likewise
+        with the density factor kx[p] ky[q] kz[r] (0 for vacuum ghosts)."""
+        PX, PY, PZ = rp.shape
+        for p in prange(PX):
+            i = sx[p]
+            for q in range(PY):
+                j = sy[q]
+                fx = gx[p]
+                fy = gy[q]
+                fk = kx[p] * ky[q]
+                for r in range(PZ):
+                    k = sz[r]
+                    up[0, p, q, r] = fx * u[0, i, j, k]
+                    up[1, p, q, r] = fy * u[1, i, j, k]
+                    up[2, p, q, r] = gz[r] * u[2, i, j, k]
+                    rp[p, q, r] = (fk * kz[r]) * rho[i, j, k]
+
+    @numba.njit(parallel=True, cache=False)
+    def rhs(t, up, rp, Gx, Gy, Gz, has_y, dx, ho, hc, hw, hs, kp, grav, mp, du, dr):
+        """Semi-discrete right-hand side at every cell from the padded arrays (module doc)."""
+        NX, NY, NZ = dr.shape
+        acc_z = -(grav + M(t, mp)[2])
+        h = 0.5 / dx
+        P = hw.size
+        for i in prange(NX):
+            I = i + Gx
+            for j in range(NY):
+                J = j + Gy
+                for k in range(NZ):
+                    Kc = k + Gz
+                    ax = up[0, I, J, Kc]
+                    ay = up[1, I, J, Kc]
+                    az = up[2, I, J, Kc]
+                    sx = 0.0
+                    sy = 0.0
+                    sz = 0.0
+                    for n in range(P):
+                        ox = ho[n, 0]
+                        oy = ho[n, 1]
+                        oz = ho[n, 2]
+                        cx = hc[n, 0]
+                        cy = hc[n, 1]
+                        cz = hc[n, 2]
+                        IA = I + ox
+                        JA = J + oy
+                        KA = Kc + oz
+                        rA = rp[IA, JA, KA]
+                        fx = 0.0
+                        fy = 0.0
+                        fz = 0.0
+                        if rA != 0.0:
+                            tx, ty, tz = K((cx, cy, cz), (ax, ay, az),
+                                           (up[0, IA, JA, KA], up[1, IA, JA, KA], up[2, IA, JA, KA]), kp)
+                            wa = hw[n] * rA
+                            fx = wa * tx
+                            fy = wa * ty
+                            fz = wa * tz
+                        if hs[n] == 0:
+                            IB = I - ox
+                            JB = J - oy
+                            rB = rp[IB, JB, KA]
+                            if rB != 0.0:
+                                tx, ty, tz = K((-cx, -cy, cz), (ax, ay, az),
+                                               (up[0, IB, JB, KA], up[1, IB, JB, KA], up[2, IB, JB, KA]), kp)
+                                wb = hw[n] * rB
+                                fx = fx + wb * tx
+                                fy = fy + wb * ty
+                                fz = fz + wb * tz
+                        sx += fx
+                        sy += fy
+                        sz += fz
+                    # central differences
+                    dxu0 = up[0, I + 1, J, Kc] - up[0, I - 1, J, Kc]
+                    dxu1 = up[1, I + 1, J, Kc] - up[1, I - 1, J, Kc]
+                    dxu2 = up[2, I + 1, J, Kc] - up[2, I - 1, J, Kc]
+                    dzu0 = up[0, I, J, Kc + 1] - up[0, I, J, Kc - 1]
+                    dzu1 = up[1, I, J, Kc + 1] - up[1, I, J, Kc - 1]
+                    dzu2 = up[2, I, J, Kc + 1] - up[2, I, J, Kc - 1]
+                    flux = (rp[I + 1, J, Kc] * up[0, I + 1, J, Kc] - rp[I - 1, J, Kc] * up[0, I - 1, J, Kc]
+                            + rp[I, J, Kc + 1] * up[2, I, J, Kc + 1] - rp[I, J, Kc - 1] * up[2, I, J, Kc - 1])
+                    adv0 = ax * dxu0 + az * dzu0
+                    adv1 = ax * dxu1 + az * dzu1
+                    adv2 = ax * dxu2 + az * dzu2
+                    if has_y:
+                        adv0 += ay * (up[0, I, J + 1, Kc] - up[0, I, J - 1, Kc])
+                        adv1 += ay * (up[1, I, J + 1, Kc] - up[1, I, J - 1, Kc])
+                        adv2 += ay * (up[2, I, J + 1, Kc] - up[2, I, J - 1, Kc])
+                        flux += rp[I, J + 1, Kc] * up[1, I, J + 1, Kc] - rp[I, J - 1, Kc] * up[1, I, J - 1, Kc]
+                    du[0, i, j, k] = sx - adv0 * h
+                    du[1, i, j, k] = sy - adv1 * h
+                    du[2, i, j, k] = sz - adv2 * h + acc_z
+                    dr[i, j, k] = -flux * h
+
+    @numba.njit(parallel=True, cache=False)
+    def moving_average(u, rho, up, rp, Gx, Gy, Gz, has_y, dims, mode):
+        """Overwrite (u, ρ) by their moving average from the padded arrays: mode 1 the seed's
+        (5.7), mode 2 the tensor-product (1/4, 1/2, 1/4) average (module docstring)."""
+        NX, NY, NZ = rho.shape
+        cn = 1.0 / (4.0 * dims)
+        for i in prange(NX):
+            I = i + Gx
+            for j in range(NY):
+                J = j + Gy
+                for k in range(NZ):
+                    Kc = k + Gz
+                    if mode == 1:
+                        for c in range(3):
+                            s = (up[c, I + 1, J, Kc] + up[c, I - 1, J, Kc]
+                                 + up[c, I, J, Kc + 1] + up[c, I, J, Kc - 1])
+                            if has_y:
+                                s += up[c, I, J + 1, Kc] + up[c, I, J - 1, Kc]
+                            u[c, i, j, k] = 0.5 * up[c, I, J, Kc] + cn * s
+                        s = rp[I + 1, J, Kc] + rp[I - 1, J, Kc] + rp[I, J, Kc + 1] + rp[I, J, Kc - 1]
+                        if has_y:
+                            s += rp[I, J + 1, Kc] + rp[I, J - 1, Kc]
+                        rho[i, j, k] = 0.5 * rp[I, J, Kc] + cn * s
+                    else:
+                        ylo = -1 if has_y else 0
+                        yhi = 1 if has_y else 0
+                        s0 = 0.0
+                        s1 = 0.0
+                        s2 = 0.0
+                        sr = 0.0
+                        for a in range(-1, 2):
+                            wa = 0.5 if a == 0 else 0.25
+                            for b in range(ylo, yhi + 1):
+                                wb = wa * ((0.5 if b == 0 else 0.25) if has_y else 1.0)
+                                for e in range(-1, 2):
+                                    w = wb * (0.5 if e == 0 else 0.25)
+                                    s0 += w * up[0, I + a, J + b, Kc + e]
+                                    s1 += w * up[1, I + a, J + b, Kc + e]
+                                    s2 += w * up[2, I + a, J + b, Kc + e]
+                                    sr += w * rp[I + a, J + b, Kc + e]
+                        u[0, i, j, k] = s0
+                        u[1, i, j, k] = s1
+                        u[2, i, j, k] = s2
+                        rho[i, j, k] = sr
+
+    @numba.njit(parallel=True, cache=False)
+    def _axpy_stage(yu, yr, u, rho, ku, kr, st, A, dt):
+        """(yu, yr) = (u, ρ) + dt Σ_{j<st} A[st, j] (ku_j, kr_j)."""
+        NX, NY, NZ = rho.shape
+        for i in prange(NX):
+            for j in range(NY):
+                for k in range(NZ):
+                    a0 = u[0, i, j, k]
+                    a1 = u[1, i, j, k]
+                    a2 = u[2, i, j, k]
+                    ar = rho[i, j, k]
+                    for m in range(st):
+                        f = dt * A[st, m]
+                        if f != 0.0:
+                            a0 += f * ku[m, 0, i, j, k]
+                            a1 += f * ku[m, 1, i, j, k]
+                            a2 += f * ku[m, 2, i, j, k]
+                            ar += f * kr[m, i, j, k]
+                    yu[0, i, j, k] = a0
+                    yu[1, i, j, k] = a1
+                    yu[2, i, j, k] = a2
+                    yr[i, j, k] = ar
+
+    @numba.njit(parallel=True, cache=False)
+    def _combine(u, rho, ku, kr, b, dt):
+        """(u, ρ) += dt Σ_j b_j (ku_j, kr_j), stage by stage in a fixed order."""
+        NX, NY, NZ = rho.shape
+        s = b.size
+        for i in prange(NX):
+            for j in range(NY):
+                for k in range(NZ):
+                    for m in range(s):
+                        f = dt * b[m]
+                        if f != 0.0:
+                            u[0, i, j, k] += f * ku[m, 0, i, j, k]
+                            u[1, i, j, k] += f * ku[m, 1, i, j, k]
+                            u[2, i, j, k] += f * ku[m, 2, i, j, k]
+                            rho[i, j, k] += f * kr[m, i, j, k]
+
+    @numba.njit(parallel=True, cache=False)
+    def _row_stats(u, rho, smax, rmax, bad):
+        """Per x-row: max Σ_a |u_a|, max ρ, and the first non-finite flat index (or -1)."""
+        NX, NY, NZ = rho.shape
+        for i in prange(NX):
+            sm = 0.0
+            rm = 0.0
+            bi = -1
+            for j in range(NY):
+                for k in range(NZ):
+                    v = abs(u[0, i, j, k]) + abs(u[1, i, j, k]) + abs(u[2, i, j, k])
+                    r = rho[i, j, k]
+                    if not (math.isfinite(v) and math.isfinite(r)):
+                        if bi < 0:
+                            bi = (i * NY + j) * NZ + k
+                    if v > sm:
+                        sm = v
+                    if r > rm:
+                        rm = r
+            smax[i] = sm
+            rmax[i] = rm
+            bad[i] = bi
+
+    @numba.njit(cache=False)
+    def advance(u, rho, t, t_end, dt_fixed, cfl, kappa, A, b, c, filt, dims, sx, sy, sz, gx, gy, gz,
+                kx, ky, kz, Gx, Gy, Gz, dx, ho, hc, hw, hs, kp, grav, mp, dt_min, rho_max, max_steps,
+                top_tol, top_layers):
+        """Advance (u, ρ) in place from t to t_end.
+
+        dt: ``dt_fixed`` if > 0, else cfl Δx / (max_j Σ_a |u_a| + sqrt(n κ max ρ)) (the n-D
+        bound of central differences: advection Σ|u_a|/Δx, sound speed c = sqrt(κρ) along a
+        diagonal sqrt(n) c/Δx); the last step is shortened to land on t_end.  filt: 0 none,
+        1 (5.7), 2 tensor average.  Returns (t, steps, status, where_flat_index, dt_last).
+        """
+        NX, NY, NZ = rho.shape
+        has_y = dims == 3
+        s = b.size
+        up = np.empty((3, NX + 2 * Gx, NY + 2 * Gy, NZ + 2 * Gz))
+        rp = np.empty((NX + 2 * Gx, NY + 2 * Gy, NZ + 2 * Gz))
+        ku = np.empty((s, 3, NX, NY, NZ))
+        kr = np.empty((s, NX, NY, NZ))
+        yu = np.empty((3, NX, NY, NZ))
+        yr = np.empty((NX, NY, NZ))
+        smax = np.empty(NX)
+        rmax = np.empty(NX)
+        bad = np.empty(NX, np.int64)
+        steps = 0
+        status = 0
+        where = -1
+        dt = 0.0
+        while t < t_end:
+            if dt_fixed > 0.0:
+                dt = dt_fixed
+            else:
+                _row_stats(u, rho, smax, rmax, bad)
+                speed = smax.max() + math.sqrt(dims * kappa * max(rmax.max(), 0.0))
+                dt = cfl * dx / speed if speed > 0.0 else t_end - t
+            last = False
+            if t + dt >= t_end - 1e-12 * max(abs(t_end), dt):
+                dt = t_end - t
+                last = True
+            if dt < dt_min and not last:
+                status = 3
+                break
+            for st in range(s):
+                _axpy_stage(yu, yr, u, rho, ku, kr, st, A, dt)
+                fill_ghosts(yu, yr, up, rp, sx, sy, sz, gx, gy, gz, kx, ky, kz)
+                rhs(t + c[st] * dt, up, rp, Gx, Gy, Gz, has_y, dx, ho, hc, hw, hs, kp, grav, mp,
+                    ku[st], kr[st])
+            _combine(u, rho, ku, kr, b, dt)
+            t = t_end if last else t + dt
+            if filt > 0:
+                fill_ghosts(u, rho, up, rp, sx, sy, sz, gx, gy, gz, kx, ky, kz)
+                moving_average(u, rho, up, rp, Gx, Gy, Gz, has_y, dims, filt)
+            steps += 1
+            _row_stats(u, rho, smax, rmax, bad)
+            for i in range(NX):
+                if bad[i] >= 0:
+                    status = 1
+                    where = bad[i]
+                    break
+            if status != 0:
+                break
+            if rho_max > 0.0 and rmax.max() > rho_max:
+                status = 2
+                where = -1
+                for i in range(NX):
+                    for j in range(NY):
+                        for k in range(NZ):
+                            if where < 0 and rho[i, j, k] > rho_max:
+                                where = (i * NY + j) * NZ + k
+                break
+            if top_tol > 0.0 and top_layers > 0:
+                for i in range(NX):
+                    for j in range(NY):
+                        for k in range(max(0, NZ - top_layers), NZ):
+                            if where < 0 and rho[i, j, k] > top_tol:
+                                where = (i * NY + j) * NZ + k
+                if where >= 0:
+                    status = 5
+                    break
+            if steps >= max_steps and t < t_end:
+                status = 4
+                break
+        return t, steps, status, where, dt
+
+    class CoreND:
+        pass
+
+    core = CoreND()
+    core.fill_ghosts = fill_ghosts
+    core.rhs = rhs
+    core.moving_average = moving_average
+    core.advance = advance
+    return core

@@ -1,0 +1,145 @@
+"""Vector interaction kernels Θ of the n-D BSR momentum equation (3.5), (3.7), and the n-D model.
+
+In the frame of the floor (3.16)-(3.17) the model solved by :mod:`bsrflow.numerics.solver_nd` is
+
+    u_t + (u·∇)u = -g e_z - ϑ''(t) e_z + ∫_{B_R(x)} ρ(y) Θ(y - x, u(x), u(y)) dy      [m/s²]
+    ρ_t = -div(ρ u)                                                             [kg/(m^n s)]
+
+with u [m/s] the velocity relative to the floor, ρ [kg/m^n] the density (mass per unit area in
+2-D, per unit volume in 3-D; the seed's scaled density ρ̂ = λρ has the constant λ absorbed into
+the kernel), g [m/s²] gravity, ϑ(t) [m] the applied vertical floor motion
+(:mod:`bsrflow.physics.motion`; its velocity jumps shift u_z, as in the 1-D solver) and Θ
+[m s⁻² kg⁻¹] the acceleration that unit mass of neighbour material at offset z = y - x gives to
+unit mass at x.  The last axis is the vertical z.
+
+Writing a new kernel
+--------------------
+Write one function ``fn(z, a, b, p)`` where ``z = (z_x, z_y, z_z)`` is the offset to the
+neighbour [m], ``a = (a_x, a_y, a_z)`` the velocity here and ``b`` the velocity there [m/s], and
+``p`` a float parameter array; return the three components ``(Θ_x, Θ_y, Θ_z)``.  Use only
+arithmetic and NumPy ufuncs so that it works on scalars in the compiled loop and on arrays in the
+NumPy reference.  Components are always (x, y, z): in 2-D runs z_y = a_y = b_y = 0 (the x-z
+plane) and Θ_y is ignored.  The solver evaluates Θ only for |z| <= R, at the quadrature nodes of
+:func:`bsrflow.numerics.grid_nd.ball_quadrature`, including z = 0 where Θ must be 0.
+
+    def soft(z, a, b, p):                       # p = (strength, radius)
+        r = np.sqrt(z[0] * z[0] + z[1] * z[1] + z[2] * z[2])
+        s = -p[0] * (p[1] - r) ** 2
+        return s * z[0], s * z[1], s * z[2]
+
+    kernel = KernelND(soft, params=[1e3, 0.02], radius=0.02, name="soft")
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numba
+import numpy as np
+
+from .motion import AppliedMotion, Rest
+
+__all__ = ["KernelND", "walton_braun_nd", "BSRModelND"]
+
+
+def _walton_braun_nd(z, a, b, p):
+    # p = (λ [kg⁻¹ s⁻²], ε [-], R [m])
+    r = np.sqrt(z[0] * z[0] + z[1] * z[1] + z[2] * z[2])
+    dot = z[0] * (b[0] - a[0]) + z[1] * (b[1] - a[1]) + z[2] * (b[2] - a[2])
+    # (R - r)/r z is the unit direction times (R - r); at r = 0 the offset is 0 and so is Θ
+    s = -p[0] * (p[2] - r) / (r + (r == 0.0)) * (1.0 - p[1] * np.sign(dot))
+    return s * z[0], s * z[1], s * z[2]
+
+
+_COMPILED: dict = {}
+
+
+def _compile(fn):
+    if fn not in _COMPILED:
+        _COMPILED[fn] = numba.njit(inline="always")(fn)
+    return _COMPILED[fn]
+
+
+@dataclass
+class KernelND:
+    """A vector interaction kernel Θ(z, u_here, u_there; p) with support |z| <= radius.
+
+    Parameters
+    ----------
+    fn : python function ``(z, a, b, p) -> (Θ_x, Θ_y, Θ_z)`` [m s⁻² kg⁻¹] (module docstring).
+    params : float parameters p (runtime values: changing them does not recompile).
+    radius : R [m], the interaction range (one particle diameter).
+    name, param_names, param_units : documentation, copied into output attributes.
+    """
+
+    fn: object
+    params: np.ndarray
+    radius: float
+    name: str = "kernel_nd"
+    param_names: tuple = ()
+    param_units: tuple = ()
+    compiled: object = field(default=None, repr=False)
+
+    def __post_init__(self):
+        self.params = np.ascontiguousarray(np.atleast_1d(np.asarray(self.params, dtype=np.float64)))
+        if not (np.isfinite(self.radius) and self.radius > 0):
+            raise ValueError(f"kernel radius = {self.radius!r} is outside the valid range (0, inf) m")
+        if self.compiled is None:
+            self.compiled = _compile(self.fn)
+
+    def __call__(self, z, a, b):
+        """Evaluate Θ with NumPy; z, a, b are 3-sequences of arrays (broadcast)."""
+        f = lambda v: tuple(np.asarray(c, float) for c in v)  # noqa: E731
+        return self.fn(f(z), f(a), f(b), self.params)
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "radius": self.radius, "params": self.params.tolist(),
+                "param_names": list(self.param_names), "param_units": list(self.param_units)}
+
+
+def walton_braun_nd(strength: float, dissipation: float, radius: float) -> KernelND:
+    """Vector Walton-Braun-type kernel: a central, repulsive, dissipative pair force.
+
+        Θ(z, u_x, u_y) = -λ (R - |z|) (z/|z|) (1 - ε σ(z·(u_y - u_x))),   0 < |z| <= R,
+        Θ(0, ·, ·) = 0,
+
+    λ = ``strength`` [kg⁻¹ s⁻²], ε = ``dissipation`` in [0, 1), R = ``radius`` [m].  The force
+    acts along the line between the points and pushes x away from y (repulsion in compression);
+    while the pair approaches, z·(u_y - u_x) < 0 and the factor is 1 + ε (loading), while it
+    separates 1 - ε (unloading), so relative normal motion loses energy.  This is the n-D form of
+    :func:`bsrflow.physics.kernels.walton_braun` (same sign convention, seed-notes problem 1).
+    For a uniform state the linearised model has sound speed c² = M ρ with
+    M = -∫_B z_z Θ_z dz = πλR⁵/15 (3-D), πλR⁴/12 (2-D) (the ε-part cancels).
+    """
+    for name, v in (("strength", strength), ("radius", radius)):
+        if not (np.isfinite(v) and v > 0):
+            raise ValueError(f"{name} = {v!r} is outside the valid range (0, inf)")
+    if not (0.0 <= dissipation < 1.0):
+        raise ValueError(f"dissipation = {dissipation!r} is outside the valid range [0, 1)")
+    return KernelND(_walton_braun_nd, [strength, dissipation, radius], radius, name="walton_braun_nd",
+                    param_names=("strength", "dissipation", "radius"),
+                    param_units=("kg-1 s-2", "1", "m"))
+
+
+@dataclass
+class BSRModelND:
+    """The physics of an n-D BSR run (module docstring).
+
+    kernel : :class:`KernelND`.
+    motion : applied vertical floor motion ϑ(t) (default: rest).
+    gravity : g [m/s²], acting towards -z (default 0).
+    """
+
+    kernel: KernelND
+    motion: AppliedMotion = field(default_factory=Rest)
+    gravity: float = 0.0
+
+    def __post_init__(self):
+        if not isinstance(self.kernel, KernelND):
+            raise ValueError(f"kernel = {self.kernel!r} must be a KernelND (see walton_braun_nd)")
+        if not np.isfinite(self.gravity):
+            raise ValueError(f"gravity = {self.gravity!r} must be finite (m/s^2)")
+        self.gravity = float(self.gravity)
+
+    def to_dict(self) -> dict:
+        return {"kernel": self.kernel.to_dict(), "motion": self.motion.to_dict(), "gravity": self.gravity}
