@@ -58,3 +58,14 @@ def test_verify_cli_writes_json(tmp_path):
     (case,) = data["cases"]
     assert set(["name", "kind", "stepper", "filter", "resolutions", "errors", "observed_order"]) <= set(case)
     assert case["kind"] == "exact" and len(case["resolutions"]) >= 4
+
+
+def test_accurate_preset_orders():
+    """'accurate' (RK4, no moving average, O(dx^3) dissipation in the RHS): >= 2 in space at fixed
+    CFL and >= 3 in time on a fixed grid."""
+    acc = Scheme.preset("accurate")
+    space = verify.case_example_b(acc, resolutions=(32, 64, 128))
+    time_ = verify.case_smooth_time(dict(stepper=acc.stepper, filter=False, hyperdiffusion=acc.hyperdiffusion),
+                                    steps=(64, 128, 256))
+    assert space["observed_order"] >= 1.95
+    assert time_["observed_order"] >= 3.0

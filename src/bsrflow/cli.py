@@ -17,6 +17,7 @@ from . import __version__
 # (module defining add_parser) -- one line per command
 COMMAND_MODULES = [
     "bsrflow.analysis.verify",
+    "bsrflow.analysis.compare",
 ]
 
 

@@ -58,9 +58,11 @@ def make_core_nd(kernel_fn, motion_fn):
     M = motion_fn
 
     @numba.njit(parallel=True, cache=False)
-    def fill_ghosts(u, rho, up, rp, sx, sy, sz, gx, gy, gz, kx, ky, kz):
+    def fill_ghosts(u, rho, up, rp, sx, sy, sz, gx, gy, gz, kx, ky, kz, prz):
         """Padded copies: up[c, p, q, r] = sign_c · u[c, sx[p], sy[q], sz[r]], rp likewise
-        with the density factor kx[p] ky[q] kz[r] (0 for vacuum ghosts)."""
+        with the density factor kx[p] ky[q] kz[r] (0 for vacuum ghosts); where prz[r] = 1 (floor
+        ghosts) the density is the point reflection max(0, 2 ρ_w - ρ), ρ_w = (3ρ_0 - ρ_1)/2 of
+        the source column (grid_nd)."""
         PX, PY, PZ = rp.shape
         for p in prange(PX):
             i = sx[p]
@@ -74,11 +76,17 @@ def make_core_nd(kernel_fn, motion_fn):
                     up[0, p, q, r] = fx * u[0, i, j, k]
                     up[1, p, q, r] = fy * u[1, i, j, k]
                     up[2, p, q, r] = gz[r] * u[2, i, j, k]
-                    rp[p, q, r] = (fk * kz[r]) * rho[i, j, k]
+                    if prz[r] != 0.0:
+                        rw = 1.5 * rho[i, j, 0] - 0.5 * rho[i, j, 1]
+                        v = 2.0 * rw - rho[i, j, k]
+                        rp[p, q, r] = (fk * kz[r]) * (v if v > 0.0 else 0.0)
+                    else:
+                        rp[p, q, r] = (fk * kz[r]) * rho[i, j, k]
 
     @numba.njit(parallel=True, cache=False)
-    def rhs(t, up, rp, Gx, Gy, Gz, has_y, dx, ho, hc, hw, hs, kp, grav, mp, du, dr):
-        """Semi-discrete right-hand side at every cell from the padded arrays (module doc)."""
+    def rhs(t, up, rp, Gx, Gy, Gz, has_y, floor, dx, ho, hc, hw, hs, kp, grav, mp, du, dr):
+        """Semi-discrete right-hand side at every cell from the padded arrays (module doc).
+        With a supporting floor the vertical flux at k = 0 uses the even image ρ_{-1} = ρ_0."""
         NX, NY, NZ = dr.shape
         acc_z = -(grav + M(t, mp)[2])
         h = 0.5 / dx
@@ -137,8 +145,9 @@ def make_core_nd(kernel_fn, motion_fn):
                     dzu0 = up[0, I, J, Kc + 1] - up[0, I, J, Kc - 1]
                     dzu1 = up[1, I, J, Kc + 1] - up[1, I, J, Kc - 1]
                     dzu2 = up[2, I, J, Kc + 1] - up[2, I, J, Kc - 1]
+                    rlow = rp[I, J, Kc] if (floor and k == 0) else rp[I, J, Kc - 1]
                     flux = (rp[I + 1, J, Kc] * up[0, I + 1, J, Kc] - rp[I - 1, J, Kc] * up[0, I - 1, J, Kc]
-                            + rp[I, J, Kc + 1] * up[2, I, J, Kc + 1] - rp[I, J, Kc - 1] * up[2, I, J, Kc - 1])
+                            + rp[I, J, Kc + 1] * up[2, I, J, Kc + 1] - rlow * up[2, I, J, Kc - 1])
                     adv0 = ax * dxu0 + az * dzu0
                     adv1 = ax * dxu1 + az * dzu1
                     adv2 = ax * dxu2 + az * dzu2
@@ -153,9 +162,10 @@ def make_core_nd(kernel_fn, motion_fn):
                     dr[i, j, k] = -flux * h
 
     @numba.njit(parallel=True, cache=False)
-    def moving_average(u, rho, up, rp, Gx, Gy, Gz, has_y, dims, mode):
+    def moving_average(u, rho, up, rp, Gx, Gy, Gz, has_y, floor, dims, mode):
         """Overwrite (u, ρ) by their moving average from the padded arrays: mode 1 the seed's
-        (5.7), mode 2 the tensor-product (1/4, 1/2, 1/4) average (module docstring)."""
+        (5.7), mode 2 the tensor-product (1/4, 1/2, 1/4) average (module docstring).  With a
+        supporting floor the density below k = 0 is the even image (mass-conserving)."""
         NX, NY, NZ = rho.shape
         cn = 1.0 / (4.0 * dims)
         for i in prange(NX):
@@ -164,6 +174,7 @@ def make_core_nd(kernel_fn, motion_fn):
                 J = j + Gy
                 for k in range(NZ):
                     Kc = k + Gz
+                    zl = 0 if (floor and k == 0) else -1     # density layer used below
                     if mode == 1:
                         for c in range(3):
                             s = (up[c, I + 1, J, Kc] + up[c, I - 1, J, Kc]
@@ -171,7 +182,7 @@ def make_core_nd(kernel_fn, motion_fn):
                             if has_y:
                                 s += up[c, I, J + 1, Kc] + up[c, I, J - 1, Kc]
                             u[c, i, j, k] = 0.5 * up[c, I, J, Kc] + cn * s
-                        s = rp[I + 1, J, Kc] + rp[I - 1, J, Kc] + rp[I, J, Kc + 1] + rp[I, J, Kc - 1]
+                        s = rp[I + 1, J, Kc] + rp[I - 1, J, Kc] + rp[I, J, Kc + 1] + rp[I, J, Kc + zl]
                         if has_y:
                             s += rp[I, J + 1, Kc] + rp[I, J - 1, Kc]
                         rho[i, j, k] = 0.5 * rp[I, J, Kc] + cn * s
@@ -191,11 +202,44 @@ def make_core_nd(kernel_fn, motion_fn):
                                     s0 += w * up[0, I + a, J + b, Kc + e]
                                     s1 += w * up[1, I + a, J + b, Kc + e]
                                     s2 += w * up[2, I + a, J + b, Kc + e]
-                                    sr += w * rp[I + a, J + b, Kc + e]
+                                    sr += w * rp[I + a, J + b, Kc + (zl if e == -1 else e)]
                         u[0, i, j, k] = s0
                         u[1, i, j, k] = s1
                         u[2, i, j, k] = s2
                         rho[i, j, k] = sr
+
+    @numba.njit(parallel=True, cache=False)
+    def extend_velocity(u, rho, thr):
+        """Velocity extension into vacuum, column by column (the 1-D solver's rule along z):
+        every cell with ρ < thr takes the velocity vector of the nearest cell of its vertical
+        column with ρ >= thr (the lower one on a tie); columns without material are left."""
+        NX, NY, NZ = rho.shape
+        for i in prange(NX):
+            src = np.empty(NZ, np.int64)
+            dist = np.empty(NZ, np.int64)
+            for j in range(NY):
+                last = -1
+                for k in range(NZ):
+                    src[k] = -1
+                    dist[k] = NZ + 1
+                    if rho[i, j, k] >= thr:
+                        last = k
+                    elif last >= 0:
+                        dist[k] = k - last
+                        src[k] = last
+                nxt = -1
+                for k in range(NZ - 1, -1, -1):
+                    if rho[i, j, k] >= thr:
+                        nxt = k
+                    elif nxt >= 0 and nxt - k < dist[k]:
+                        dist[k] = nxt - k
+                        src[k] = nxt
+                for k in range(NZ):
+                    if rho[i, j, k] < thr and src[k] >= 0:
+                        m = src[k]
+                        u[0, i, j, k] = u[0, i, j, m]
+                        u[1, i, j, k] = u[1, i, j, m]
+                        u[2, i, j, k] = u[2, i, j, m]
 
     @numba.njit(parallel=True, cache=False)
     def _axpy_stage(yu, yr, u, rho, ku, kr, st, A, dt):
@@ -261,14 +305,16 @@ def make_core_nd(kernel_fn, motion_fn):
 
     @numba.njit(cache=False)
     def advance(u, rho, t, t_end, dt_fixed, cfl, kappa, A, b, c, filt, dims, sx, sy, sz, gx, gy, gz,
-                kx, ky, kz, Gx, Gy, Gz, dx, ho, hc, hw, hs, kp, grav, mp, dt_min, rho_max, max_steps,
-                top_tol, top_layers):
+                kx, ky, kz, prz, floor, Gx, Gy, Gz, dx, ho, hc, hw, hs, kp, grav, mp, dt_min, rho_max,
+                max_steps, top_tol, top_layers, vac_thr):
         """Advance (u, ρ) in place from t to t_end.
 
         dt: ``dt_fixed`` if > 0, else cfl Δx / (max_j Σ_a |u_a| + sqrt(n κ max ρ)) (the n-D
         bound of central differences: advection Σ|u_a|/Δx, sound speed c = sqrt(κρ) along a
         diagonal sqrt(n) c/Δx); the last step is shortened to land on t_end.  filt: 0 none,
-        1 (5.7), 2 tensor average.  Returns (t, steps, status, where_flat_index, dt_last).
+        1 (5.7), 2 tensor average.  vac_thr > 0: velocity extension into vacuum after every
+        step (before the average), as the 1-D solver.
+        Returns (t, steps, status, where_flat_index, dt_last).
         """
         NX, NY, NZ = rho.shape
         has_y = dims == 3
@@ -302,14 +348,16 @@ def make_core_nd(kernel_fn, motion_fn):
                 break
             for st in range(s):
                 _axpy_stage(yu, yr, u, rho, ku, kr, st, A, dt)
-                fill_ghosts(yu, yr, up, rp, sx, sy, sz, gx, gy, gz, kx, ky, kz)
-                rhs(t + c[st] * dt, up, rp, Gx, Gy, Gz, has_y, dx, ho, hc, hw, hs, kp, grav, mp,
+                fill_ghosts(yu, yr, up, rp, sx, sy, sz, gx, gy, gz, kx, ky, kz, prz)
+                rhs(t + c[st] * dt, up, rp, Gx, Gy, Gz, has_y, floor, dx, ho, hc, hw, hs, kp, grav, mp,
                     ku[st], kr[st])
             _combine(u, rho, ku, kr, b, dt)
             t = t_end if last else t + dt
+            if vac_thr > 0.0:
+                extend_velocity(u, rho, vac_thr)
             if filt > 0:
-                fill_ghosts(u, rho, up, rp, sx, sy, sz, gx, gy, gz, kx, ky, kz)
-                moving_average(u, rho, up, rp, Gx, Gy, Gz, has_y, dims, filt)
+                fill_ghosts(u, rho, up, rp, sx, sy, sz, gx, gy, gz, kx, ky, kz, prz)
+                moving_average(u, rho, up, rp, Gx, Gy, Gz, has_y, floor, dims, filt)
             steps += 1
             _row_stats(u, rho, smax, rmax, bad)
             for i in range(NX):
@@ -349,5 +397,6 @@ def make_core_nd(kernel_fn, motion_fn):
     core.fill_ghosts = fill_ghosts
     core.rhs = rhs
     core.moving_average = moving_average
+    core.extend_velocity = extend_velocity
     core.advance = advance
     return core

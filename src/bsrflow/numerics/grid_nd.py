@@ -16,16 +16,27 @@ Boundary conditions act through ghost cells (as in :mod:`bsrflow.numerics.grid`)
     a mirror wall at each end of the axis: ρ is reflected evenly, the normal velocity
     component oddly, the tangential components evenly.  The image material pushes back
     through the interaction integral, no mass crosses the wall.
-``floor`` (bottom end of the vertical axis)
-    the same mirror rule at z = lower_z: ρ even, u_z odd, tangential u even.
+``floor`` (bottom end of the vertical axis; default)
+    the supporting floor of the 1-D solver (:mod:`bsrflow.numerics.grid`), column by column:
+    the velocity is reflected (u_z odd, tangential u even); for the interaction integral the
+    density is reflected point-symmetrically through its value extrapolated to the floor,
+    ρ(-s) = max(0, 2 ρ_w - ρ(s)) with ρ_w = (3 ρ_0 - ρ_1)/2 in each column, so the images
+    continue the density gradient and a resting layer is held up; the mass flux through the
+    floor and the moving average use the even image ρ_{-1} = ρ_0 (zero flux, mass conserved).
+``mirror`` (bottom)
+    plain mirror images: ρ even (also in the integral), u_z odd, tangential u even.  The
+    interaction force vanishes at such a wall, so material near it is not held up against
+    gravity (see grid.py); kept for comparison.
 ``vacuum`` (top end; or bottom)
     open end into empty space: ghost ρ = 0, ghost u copied from the last cell (all
     components), the seed's (4.30).
 
 Ghost values are products of the per-axis rules (a corner ghost of a wall and the floor is
-the image in both), so every padded cell is a transformed copy of one interior cell.
+the image in both), so every padded cell is a transformed copy of one interior cell (the
+floor's density images use the two lowest cells of the source column).
 :meth:`GridND.ghost_maps` gives, per axis, the interior source index, the sign of the
-normal velocity component and whether the density is zeroed, for every padded index.
+normal velocity component and whether the density is zeroed, for every padded index, and
+flags the floor ghosts.
 
 Quadrature of the interaction integral
 --------------------------------------
@@ -68,9 +79,9 @@ import numpy as np
 
 __all__ = ["GridND", "ball_quadrature", "ball_quadrature_accuracy", "BC_CODES_ND"]
 
-BC_CODES_ND = {"periodic": 0, "wall": 1, "floor": 1, "vacuum": 2}
+BC_CODES_ND = {"periodic": 0, "wall": 1, "mirror": 1, "vacuum": 2, "floor": 3}
 _HORIZONTAL = ("periodic", "wall")
-_LOWER = ("floor", "vacuum", "periodic")
+_LOWER = ("floor", "mirror", "vacuum", "periodic")
 _UPPER = ("vacuum", "periodic")
 
 
@@ -84,7 +95,7 @@ class GridND:
     dx : cell side Δx [m], the same on every axis.
     lower : position of the lower corner [m] (default: the origin).
     bc_horizontal : 'periodic' or 'wall', one for all horizontal axes or one per axis.
-    bc_lower : bottom of the vertical axis: 'floor' (default), 'vacuum' or 'periodic'.
+    bc_lower : bottom of the vertical axis: 'floor' (default), 'mirror', 'vacuum' or 'periodic'.
     bc_upper : top: 'vacuum' (default) or 'periodic' (only with a periodic bottom).
     """
 
@@ -178,21 +189,26 @@ class GridND:
     def ghost_maps(self, W: int):
         """Per internal axis a, arrays over the padded index q (0 .. n_a + 2 G_a - 1):
         ``src[a][q]`` interior source index, ``sign[a][q]`` (±1.0) factor of the velocity
-        component normal to axis a, ``keep[a][q]`` (1.0 or 0.0) factor of the density."""
+        component normal to axis a, ``keep[a][q]`` (1.0 or 0.0) factor of the density; and
+        ``prz[q]`` (1.0 or 0.0): the density of this z ghost is the floor's point reflection."""
         srcs, signs, keeps = [], [], []
+        prz = None
         for a, (G, n, (lo, hi)) in enumerate(zip(self.ghost_widths(W), self.shape3, self.axis_codes())):
             q = np.arange(n + 2 * G)
             m = q - G
             src = m.copy()
             sign = np.ones(q.size)
             keep = np.ones(q.size)
+            pr = np.zeros(q.size)
             for side, code in (("lo", lo), ("hi", hi)):
                 sel = m < 0 if side == "lo" else m >= n
                 if code == 0:
                     src[sel] = m[sel] % n
-                elif code == 1:
+                elif code in (1, 3):
                     src[sel] = (-m[sel] - 1) if side == "lo" else (2 * n - 1 - m[sel])
                     sign[sel] = -1.0
+                    if code == 3:
+                        pr[sel] = 1.0
                 else:
                     src[sel] = 0 if side == "lo" else n - 1
                     keep[sel] = 0.0
@@ -202,7 +218,8 @@ class GridND:
             srcs.append(src.astype(np.int64))
             signs.append(sign)
             keeps.append(keep)
-        return srcs, signs, keeps
+            prz = pr
+        return srcs, signs, keeps, prz
 
     def to_dict(self) -> dict:
         return {"shape": list(self.shape), "dx": self.dx, "lower": list(self.lower),

@@ -23,7 +23,7 @@ class ReferenceScheme:
         self.grid = sim.grid
         self.model = sim.model
         self.W = sim.W
-        self.G = max(self.W, 1)
+        self.G = max(self.W, 2)
         self.qz, self.qw = quadrature_weights(self.W, self.grid.dx, sim.scheme.quadrature)
         self.tableau = get_stepper(sim.scheme.stepper)
 
@@ -78,6 +78,15 @@ class ReferenceScheme:
         if g.bc_lower == "floor":
             # flux through the floor with the even image (see grid.py)
             dr[0] = -(rp[G + 1] * up[G + 1] - rp[G] * up[G - 1]) / (2 * g.dx)
+        k4 = self.sim.scheme.hyperdiffusion
+        if k4 > 0:
+            coef = k4 * (np.max(np.abs(u)) + np.sqrt(self.sim.kappa * np.max(rho))) / g.dx
+            d4 = lambda a: a[G - 2:G + N - 2] - 4 * a[G - 1:G + N - 1] + 6 * a[G:G + N] - 4 * a[G + 1:G + N + 1] + a[G + 2:G + N + 2]
+            r4 = rp.copy()
+            if g.bc_lower == "floor":
+                r4[G - 1], r4[G - 2] = rho[0], rho[1]      # even images for the dissipative flux
+            du = du - coef * d4(up)
+            dr = dr - coef * d4(r4)
         return du, dr
 
     def moving_average(self, u, rho, t):
