@@ -92,3 +92,13 @@ def test_velocity_extension_matches_reference(rng):
     sim.advance(uc, rc, 0.0, 2e-3)
     assert _relerr(uc, un) < 1e-12
     assert _relerr(rc, rn) < 1e-12
+
+
+def test_positivity_fix_conserves_mass(rng):
+    grid = Grid1D(0.0, 1.0, 60, "floor", "vacuum")
+    sim = Simulation(_model(("floor", "vacuum")), grid, Scheme(positivity=True))
+    rho = rng.uniform(-0.2, 1.0, 200)
+    total = rho.sum()
+    sim.core.make_positive(rho)
+    assert rho.min() >= 0.0
+    assert abs(rho.sum() - total) < 1e-12 * np.abs(rho).sum()

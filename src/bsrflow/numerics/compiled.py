@@ -208,6 +208,30 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
                 u[i] = u[src_lo[i]]
 
     @numba.njit(cache=False)
+    def make_positive(rho):
+        """Mass-conserving positivity fix: each cell with ρ < 0 is set to 0 and its deficit is
+        taken from the nearest cells with positive density, in proportion to their density,
+        widening the neighbourhood until the deficit is covered."""
+        N = rho.size
+        for i in range(N):
+            if rho[i] < 0.0:
+                deficit = -rho[i]
+                rho[i] = 0.0
+                for w in range(1, N):
+                    avail = 0.0
+                    for j in range(max(0, i - w), min(N, i + w + 1)):
+                        if rho[j] > 0.0:
+                            avail += rho[j]
+                    if avail >= deficit or w == N - 1:
+                        f = deficit / avail if avail > 0.0 else 0.0
+                        if f > 1.0:
+                            f = 1.0
+                        for j in range(max(0, i - w), min(N, i + w + 1)):
+                            if rho[j] > 0.0:
+                                rho[j] -= f * rho[j]
+                        break
+
+    @numba.njit(cache=False)
     def interp(up, G, N, xlo, dx, p):
         """Linear interpolation of a padded cell-centred field at position p."""
         q = (p - xlo) / dx - 0.5 + G
@@ -222,7 +246,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
     @numba.njit(cache=False)
     def advance(u, rho, t, t_end, dt_fixed, cfl, kappa, A, b, c, filt, bcl, bch, xlo, dx, W, qz, qw,
                 kp, grav, ep, mp, bp, dt_min, rho_max, max_steps, strain_limit, top_tol,
-                tracers, tracer_mode, vac_thr, hyper):
+                tracers, tracer_mode, vac_thr, hyper, positivity):
         """Advance (u, rho, tracers) in place from t to t_end.
 
         dt: ``dt_fixed`` if > 0, else cfl Δx / (max|u| + sqrt(κ max ρ)); the last step is
@@ -323,6 +347,8 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
                     if tracers[n] < xlo:  # floor
                         tracers[n] = xlo
             t = t_end if last else t + dt
+            if positivity:
+                make_positive(rho)
             if vac_thr > 0.0:
                 extend_velocity(u, rho, vac_thr)
             if filt:
@@ -362,5 +388,6 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
     core.moving_average = moving_average
     core.interp = interp
     core.extend_velocity = extend_velocity
+    core.make_positive = make_positive
     core.advance = advance
     return core

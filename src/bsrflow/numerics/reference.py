@@ -110,6 +110,9 @@ class ReferenceScheme:
             kr.append(dr)
         un = u + dt * sum(tb.b[j] * ku[j] for j in range(tb.stages))
         rn = rho + dt * sum(tb.b[j] * kr[j] for j in range(tb.stages))
+        if self.sim.scheme.positivity:
+            rn = rn.copy()
+            self.sim.core.make_positive(rn)      # same redistribution (a sequential algorithm)
         thr = self.sim.vacuum_density
         if thr > 0:
             mat = np.flatnonzero(rn >= thr)

@@ -15,9 +15,11 @@ column is solved in the floor frame with:
   into vacuum, tracers started at the sphere centres.
 
 The domain height comes from an energy bound: the floor moves at most at aω, a sphere hit by
-it leaves at most at 2aω plus what the chain behind it passes on; we allow a launch speed of
-3aω, so the domain is N d + (3aω)²/(2g) + 3 d tall; the solver stops with an error naming the
-time if material reaches the top anyway.
+it leaves at most at 2aω plus what the chain behind it passes on (we allow 3aω); in the
+continuum the dilute top edge also expands into the vacuum like a gas with pressure ∝ ρ²
+(γ = 2), whose front moves at most at 2c0/(γ-1) = 2c0 faster (c0 the kernel's sound speed at
+the stacked density).  So the domain is N d + (3aω + 2c0)²/(2g) + 3 d tall; the solver stops
+with an error naming the time if material reaches the top anyway.
 
 Units: SI throughout; heights in outputs are also given in units of d where named ``*_over_d``.
 """
@@ -129,9 +131,14 @@ class ColumnSetup:
     def omega(self) -> float:
         return 2.0 * math.pi * self.frequency
 
+    def sound_speed(self) -> float:
+        """c0 = sqrt(κ m/d) = sqrt(K d² / (3 m0)) [m/s], the kernel's sound speed at the stacked
+        spheres' line density (κ = λR³/3, λ = K/(m m0), R = d)."""
+        return math.sqrt(self.stiffness * self.diameter ** 2 / (3.0 * self.m0))
+
     def energy_bound_height(self) -> float:
         """Domain height [m] from the energy bound (module docstring)."""
-        v = 3.0 * self.amplitude * self.omega
+        v = 3.0 * self.amplitude * self.omega + 2.0 * self.sound_speed()
         return self.n_spheres * self.diameter + v * v / (2.0 * self.gravity) + 3.0 * self.diameter
 
     def height(self) -> float:
