@@ -35,10 +35,12 @@ def _relerr(a, b):
 
 @pytest.mark.parametrize("bcs", CASES)
 @pytest.mark.parametrize("stepper", ["euler", "heun", "kutta3", "rk4"])
-@pytest.mark.parametrize("filt, hyper", [(False, 0.0), (True, 0.0), (False, 1 / 32)])
-def test_step_matches_reference(bcs, stepper, filt, hyper, rng):
+@pytest.mark.parametrize("filt, hyper, sel", [(False, 0.0, 0.0), (True, 0.0, 0.0), (False, 1 / 32, 0.0),
+                                              (False, 1 / 32, 0.02)])
+def test_step_matches_reference(bcs, stepper, filt, hyper, sel, rng):
     grid = Grid1D(0.0, 1.0, 60, *bcs)                     # radius 0.1 m = 6 cells
-    sim = Simulation(_model(bcs), grid, Scheme(stepper=stepper, filter=filt, dt=1e-3, hyperdiffusion=hyper))
+    sim = Simulation(_model(bcs), grid, Scheme(stepper=stepper, filter=filt, dt=1e-3, hyperdiffusion=hyper,
+                                               selective_filter=sel))
     ref = ReferenceScheme(sim)
     u = rng.normal(0.0, 0.5, grid.n_cells)
     rho = rng.uniform(0.5, 5.0, grid.n_cells)

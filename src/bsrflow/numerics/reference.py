@@ -128,7 +128,30 @@ class ReferenceScheme:
                 un[vac] = un[np.where(dhi < dlo, hi, lo)]
         if self.sim.scheme.filter:
             un, rn = self.moving_average(un, rn, t + dt)
+        elif self.sim.scheme.selective_filter > 0:
+            un, rn = self.selective_average(un, rn, t + dt)
         return un, rn
+
+    def selective_average(self, u, rho, t):
+        """Moving average in flux form on the faces next to cells flagged by the sensors."""
+        G, N = self.G, self.grid.n_cells
+        up, rp = self.pad(u, rho, t)
+        tau = self.sim.scheme.selective_filter
+        speed = np.max(np.abs(u)) + np.sqrt(self.sim.kappa * np.max(rho))
+        c = slice(G - 1, G + N + 1)                          # cells -1..N
+        l = slice(G - 2, G + N)
+        r = slice(G, G + N + 2)
+        dr = np.abs(rp[l] - 2 * rp[c] + rp[r])
+        sr = rp[l] + 2 * rp[c] + rp[r]
+        du = np.abs(up[l] - 2 * up[c] + up[r])
+        su = np.abs(up[l]) + 2 * np.abs(up[c]) + np.abs(up[r]) + 4 * speed
+        flag = ((sr > 0) & (dr > tau * sr)) | ((su > 0) & (du > tau * su))
+        on = flag[:-1] | flag[1:]                            # faces between cells f-1 and f, f = 0..N
+        fu = np.where(on, 0.25 * (up[G:G + N + 1] - up[G - 1:G + N]), 0.0)
+        fr = np.where(on, 0.25 * (rp[G:G + N + 1] - rp[G - 1:G + N]), 0.0)
+        if self.grid.bc_lower == "floor":
+            fr[0] = 0.0
+        return u + fu[1:] - fu[:-1], rho + fr[1:] - fr[:-1]
 
     def run_fixed(self, u, rho, t, dt, n_steps):
         """n_steps steps of size dt."""
