@@ -56,3 +56,12 @@ def test_seed_constants_as_printed_expand_the_column():
 def test_bad_column_parameters(field, value):
     with pytest.raises(ValueError, match=field):
         ColumnSetup(**{field: value})
+
+
+@pytest.mark.slow
+def test_energy_study_unfiltered_breaks_down():
+    from bsrflow.analysis.energy import energy_study
+    out = energy_study(figures=None, log=None)
+    assert out["runs"]["moving_average"]["completed"]
+    assert not out["runs"]["no_moving_average"]["completed"]
+    assert np.nanmax(out["wave_speed"]["top_tracer_m_s"]) > 0

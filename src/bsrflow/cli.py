@@ -18,6 +18,7 @@ from . import __version__
 COMMAND_MODULES = [
     "bsrflow.analysis.verify",
     "bsrflow.analysis.compare",
+    "bsrflow.analysis.energy",
     "bsrflow.analysis.stability",
 ]
 
