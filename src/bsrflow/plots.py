@@ -19,7 +19,10 @@ def density_snapshots(run, path, times=SNAPSHOT_TIMES, title=""):
     s = run.setup
     d, line = s.diameter, s.particle_mass / s.diameter
     fig, axes = plt.subplots(2, 4, figsize=(13, 6), sharex=True, sharey=True)
+    occupied = (run.x[None, :] + run.floor[:, None])[run.rho > 1e-3 * line]
+    top = (occupied.max() if occupied.size else run.x[-1]) / d
     for ax, tt in zip(axes.ravel(), times):
+        ax.set_xlim(0.0, 1.15 * top)
         k = int(np.argmin(np.abs(run.t - tt)))
         ax.plot((run.x + run.floor[k]) / d, run.rho[k] / line, color="C0")
         ax.set_title(f"t = {run.t[k]:.2f} s")

@@ -189,8 +189,9 @@ def seed_as_printed(base: ColumnSetup, log=print) -> dict:
     info["hydrostatic_height_m"] = hyd
     info["hydrostatic_height_over_d"] = hyd / s.diameter
     info["explanation"] = ("with m0 = 22 kg the kernel is so stiff that the resting column's hydrostatic "
-                           "height sqrt(2 lambda R^3 M / (3 g)) is metres: the column expands out of any "
-                           "sensible domain before the tap")
+                           "height sqrt(2 lambda R^3 M / (3 g)) is metres: the stacked column expands "
+                           "upwards during the settling phase, before any tap, and its dilute top is "
+                           "thrown far higher")
     if log:
         log(f"  seed as printed (m0 = 22 kg): {info['status']}; hydrostatic height {hyd:.2f} m "
             f"= {hyd / s.diameter:.0f} d")
