@@ -60,14 +60,15 @@ AVERAGES = {"na": 1, "tensor": 2}
 
 
 # ---- layout helpers ------------------------------------------------------------------------
-def to_internal(grid: GridND, u, rho):
+def to_internal(grid: GridND, u, rho, names=("u", "rho")):
     """User layout (u (n, *shape), ρ shape) -> internal (u (3, n_x, n_y, n_z), ρ (n_x, n_y, n_z))."""
     u = np.asarray(u, float)
     rho = np.asarray(rho, float)
     if u.shape != (grid.dim,) + grid.shape:
-        raise ValueError(f"u has shape {u.shape}; expected {(grid.dim,) + grid.shape} (one component per axis)")
+        raise ValueError(f"{names[0]} has shape {u.shape}; expected {(grid.dim,) + grid.shape} "
+                         "(one component per axis)")
     if rho.shape != grid.shape:
-        raise ValueError(f"rho has shape {rho.shape}; expected {grid.shape} to match the grid")
+        raise ValueError(f"{names[1]} has shape {rho.shape}; expected {grid.shape} to match the grid")
     if grid.dim == 3:
         return np.ascontiguousarray(u), np.ascontiguousarray(rho)
     ui = np.zeros((3,) + grid.shape3)
@@ -125,7 +126,9 @@ class SimulationND:
     grid : :class:`bsrflow.numerics.grid_nd.GridND`; the kernel radius must be a whole number
         W >= 2 of cells.
     scheme : :class:`bsrflow.numerics.solver.Scheme` (uses stepper, filter, cfl, dt; the 1-D
-        quadrature and tracer options do not apply).  Default: the seed's preset.
+        quadrature and tracer options do not apply).  Default: the seed's preset.  Without a
+        fixed dt the step is Δt = cfl Δx / (max_cells Σ_a |u_a| + sqrt(n κ max ρ)), κ from
+        :meth:`stiffness_moment` (the n-D bound of central differences).
     average : moving average when ``scheme.filter``: 'na' the seed's (5.7), 'tensor' the
         product of 1-D (1/4, 1/2, 1/4) averages.
     rho_max : stop when ρ exceeds this [kg/m^n] (0: no bound).
@@ -176,7 +179,12 @@ class SimulationND:
         self.ho = np.ascontiguousarray(o3[half])
         self.hc = np.ascontiguousarray(c3[half])
         self.hw = np.ascontiguousarray(wts[half])
-        self.hs = np.ascontiguousarray(((self.ho[:, 0] == 0) & (self.ho[:, 1] == 0)).astype(np.int64))
+        self_pair = (self.ho[:, 0] == 0) & (self.ho[:, 1] == 0)      # the vertical column
+        self.hwB = np.ascontiguousarray(np.where(self_pair, 0.0, self.hw))
+        PY = grid.shape3[1] + 2 * self.G[1]
+        PZ = grid.shape3[2] + 2 * self.G[2]
+        self.dA = np.ascontiguousarray((self.ho[:, 0] * PY + self.ho[:, 1]) * PZ + self.ho[:, 2])
+        self.dB = np.ascontiguousarray((-self.ho[:, 0] * PY - self.ho[:, 1]) * PZ + self.ho[:, 2])
         self.tableau = get_stepper(self.scheme.stepper)
         self.kappa = self.stiffness_moment()
         self.rho_max = float(rho_max)
@@ -197,14 +205,18 @@ class SimulationND:
         return out
 
     def stiffness_moment(self) -> float:
-        """κ = max over relative vertical motions of |Σ_o w_o c_z Θ_z(c_o, 0, b)| [m^(n+2) s⁻² kg⁻¹]
-        (b = 0, ±e_z m/s); for the Walton-Braun kernel the discrete M of c² = M ρ."""
+        """κ = max over relative vertical motions of |Σ_o w_o (o_z Δx) Θ_z(c_o, 0, b)|
+        [m^(n+2) s⁻² kg⁻¹] (b = 0, ±e_z m/s).  This is the discrete M of the scheme: for a
+        density linear in z (sampled at cell centres, o_z Δx from the cell) the quadrature sum
+        is exactly -M ∂ρ/∂z, and c² = M ρ is the sound speed of the semi-discrete model at
+        long wavelengths.  The solver's CFL bound uses c = sqrt(κ max ρ)."""
         c3 = self._three(self.nodes).T
+        oz = self.offsets[:, -1] * self.grid.dx
         zero = np.zeros(c3.shape[1])
         vals = []
         for bz in (0.0, 1.0, -1.0):
             th = self.model.kernel(tuple(c3), (zero, zero, zero), (zero, zero, zero + bz))
-            vals.append(abs(float(np.sum(self.weights * c3[2] * th[2]))))
+            vals.append(abs(float(np.sum(self.weights * oz * th[2]))))
         return max(vals)
 
     def _filter_code(self):
@@ -221,7 +233,7 @@ class SimulationND:
         return self.core.advance(
             ui, ri, float(t), float(t_end), float(s.dt or 0.0), float(s.cfl), float(self.kappa),
             tb.a, tb.b, tb.c, self._filter_code(), g.dim, sx, sy, sz, gx, gy, gz, kx, ky, kz, prz,
-            self.floor, Gx, Gy, Gz, g.dx, self.ho, self.hc, self.hw, self.hs, self.model.kernel.params,
+            self.floor, Gx, Gy, Gz, g.dx, self.dA, self.dB, self.hc, self.hw, self.hwB, self.model.kernel.params,
             self.model.gravity, self.model.motion.params, self.dt_min, self.rho_max,
             int(max_steps or self.max_steps), self.top_tolerance, top_layers, self.vacuum_density)
 
@@ -242,8 +254,10 @@ class SimulationND:
         du = np.empty_like(ui)
         dr = np.empty_like(ri)
         Gx, Gy, Gz = self.G
-        self.core.rhs(float(t), up, rp, Gx, Gy, Gz, g.dim == 3, self.floor, g.dx, self.ho, self.hc, self.hw, self.hs,
-                      self.model.kernel.params, self.model.gravity, self.model.motion.params, du, dr)
+        acc_z = -(self.model.gravity + self.model.motion.state(float(t))[2])
+        self.core.rhs(acc_z, up.reshape(3, -1), rp.reshape(-1), up.shape[2], up.shape[3], Gx, Gy, Gz,
+                      g.dim == 3, self.floor, g.dx, self.dA, self.dB, self.hc, self.hw, self.hwB,
+                      self.model.kernel.params, du, dr)
         return from_internal(g, du, dr)
 
     def moving_average(self, u, rho, mode=None):
@@ -283,7 +297,7 @@ class SimulationND:
         for name, arr in (("u0", u0), ("rho0", rho0)):
             if not np.all(np.isfinite(arr)):
                 raise ValueError(f"{name} contains non-finite values")
-        ui, ri = to_internal(g, u0, rho0)
+        ui, ri = to_internal(g, u0, rho0, names=("u0", "rho0"))
         ui, ri = ui.copy(), ri.copy()
         if np.any(ri < 0):
             raise ValueError(f"rho0 has negative values (min {ri.min():.3g} kg/m^{g.dim}); density must be >= 0")
@@ -552,23 +566,28 @@ def _embedding_setup(dim, n_vertical, n_horizontal, W):
     motion = HalfSineTaps(0.002, 10.0, start=0.01)      # jumps at 0.01 s and 0.06 s
     z = (np.arange(n_vertical) + 0.5) * dx
     H = 0.45 * n_vertical * dx
-    rho_z = rho_bulk * 0.5 * (1.0 - np.tanh((z - H) / (2.0 * dx))) * (1.0 + 0.1 * np.cos(7.0 * z / H))
+    # a compactly supported top (cos² taper over 6 cells): exactly empty above, no thin tail
+    s = np.clip((z - H) / (6.0 * dx) + 0.5, 0.0, 1.0)
+    rho_z = rho_bulk * np.cos(0.5 * np.pi * s) ** 2 * (1.0 + 0.1 * np.cos(7.0 * z / H))
     u_z = 0.05 * np.sin(5.0 * z / H) * np.exp(-z / H)
     return dx, kernel, motion, rho_z, u_z
 
 
 def embedding_error(dim: int, *, filter: bool = False, average: str = "na", stepper: str = "kutta3",
-                    n_vertical: int = 40, n_horizontal: int = 4, W: int = 3, t_end: float = 0.08,
-                    cfl: float = 0.3, details: bool = False):
+                    n_vertical: int = 40, n_horizontal: int | None = None, W: int | None = None,
+                    t_end: float = 0.08, cfl: float = 0.3, vacuum_density: float = 0.0,
+                    details: bool = False):
     """Run a horizontally uniform n-D state and the 1-D solver with the induced kernel; return
     the largest difference max(‖u_z - u₁‖∞/‖u₁‖∞, ‖ρ - ρ₁‖∞/‖ρ₁‖∞, ‖u_h‖∞/‖u₁‖∞) over all
-    columns and the final time (dimensionless).
+    columns at the final time (dimensionless).
 
     Setup: floor + vacuum column of ``n_vertical`` cells (Δx = 4 mm), periodic horizontal
-    directions with ``n_horizontal`` cells, Walton-Braun kernel (ε = 0.2, radius W cells, sound
-    speed about 3 m/s), gravity, one half-sine tap (2 mm, 10 Hz, from t = 0.01 s: both velocity
-    jumps and the frame acceleration are exercised), a non-uniform density and velocity
-    profile, fixed Δt = cfl Δx / 3 m/s, to ``t_end`` [s].
+    directions with ``n_horizontal`` cells (default W + 1), Walton-Braun kernel (ε = 0.2,
+    radius W cells, default 3, sound speed about 3 m/s), gravity, one half-sine tap (2 mm,
+    10 Hz, from t = 0.01 s: both velocity jumps and the frame acceleration are exercised), a
+    non-uniform density profile with a compactly supported top and a non-uniform velocity,
+    fixed Δt = cfl Δx / (3 m/s), to ``t_end`` [s]; optionally the velocity extension into
+    vacuum below ``vacuum_density`` [kg/m^n] on both sides.
 
     filter=False: the 1-D side is :meth:`bsrflow.numerics.solver.Simulation.run`, unfiltered.
     filter=True, average='tensor': the 1-D side is ``Simulation.run`` with its own filter.
@@ -582,13 +601,18 @@ def embedding_error(dim: int, *, filter: bool = False, average: str = "na", step
         raise ValueError(f"dim = {dim!r} is outside the valid range {{2, 3}}")
     if average not in AVERAGES:
         raise ValueError(f"average = {average!r} is not one of {sorted(AVERAGES)}")
+    if W is None:
+        W = 3
+    if n_horizontal is None:
+        n_horizontal = W + 1
     dx, kernel, motion, rho_z, u_z = _embedding_setup(dim, n_vertical, n_horizontal, W)
     dt = cfl * dx / 3.0
     g = 9.81
     shape = (n_horizontal,) * (dim - 1) + (n_vertical,)
     grid = GridND(shape, dx, bc_horizontal="periodic", bc_lower="floor", bc_upper="vacuum")
     scheme = Scheme(stepper=stepper, filter=filter, dt=dt, name="embedding")
-    sim = SimulationND(BSRModelND(kernel, motion, g), grid, scheme, average=average)
+    sim = SimulationND(BSRModelND(kernel, motion, g), grid, scheme, average=average,
+                       vacuum_density=vacuum_density)
     rho0 = np.broadcast_to(rho_z, shape).copy()
     u0 = np.zeros((dim,) + shape)
     u0[-1] = np.broadcast_to(u_z, shape)
@@ -598,11 +622,13 @@ def embedding_error(dim: int, *, filter: bool = False, average: str = "na", step
     grid1 = Grid1D(0.0, n_vertical * dx, n_vertical, "floor", "vacuum")
     model1 = BSRModel(kernel=induced_kernel_1d(kernel, dim, dx), motion=motion, gravity=g)
     if not filter or average == "tensor":
-        sim1 = Simulation(model1, grid1, Scheme(stepper=stepper, filter=filter, dt=dt, name="embedding"))
+        sim1 = Simulation(model1, grid1, Scheme(stepper=stepper, filter=filter, dt=dt, name="embedding"),
+                          vacuum_density=vacuum_density)
         r1 = sim1.run(u_z, rho_z, t_end, save_times=save_times)
         u1, rho1 = r1.u[-1], r1.rho[-1]
     else:
-        sim1 = Simulation(model1, grid1, Scheme(stepper=stepper, filter=False, dt=dt, name="embedding"))
+        sim1 = Simulation(model1, grid1, Scheme(stepper=stepper, filter=False, dt=dt, name="embedding"),
+                          vacuum_density=vacuum_density)
         u1, rho1 = _run_1d_with_average(sim1, u_z.copy(), rho_z.copy(), 0.0, t_end, save_times, motion, dim)
     uz = res.u[-1][-1].reshape(-1, n_vertical)
     uh = res.u[-1][:-1]
@@ -613,7 +639,8 @@ def embedding_error(dim: int, *, filter: bool = False, average: str = "na", step
              "u_vertical_abs_m_per_s": float(np.max(np.abs(uz - u1))),
              "rho_abs": float(np.max(np.abs(rz - rho1))),
              "steps": int(res.steps), "dt": dt, "t_end": t_end, "dx": dx, "W": W,
-             "shape": list(shape), "filter": bool(filter), "average": average if filter else None}
+             "shape": list(shape), "filter": bool(filter), "average": average if filter else None,
+             "vacuum_density": vacuum_density}
     err = max(parts["u_vertical"], parts["rho"], parts["u_horizontal"])
     return (err, parts) if details else err
 

@@ -1,0 +1,298 @@
+"""The 2-D / 3-D solver: embedding of the 1-D solver, conservation, symmetry, compiled vs NumPy
+reference, determinism across thread counts, scenarios.
+
+All runs use the Walton-Braun kernel and the half-sine tap motion (one compile of the n-D core;
+the vibrated-box scenario adds one small recompile of the step loop)."""
+import numba
+import numpy as np
+import pytest
+
+from bsrflow.numerics.grid_nd import GridND, ball_quadrature, ball_quadrature_accuracy
+from bsrflow.numerics.solver import Scheme
+from bsrflow.numerics.solver_nd import (ReferenceND, SimulationND, embedding_error, to_internal,
+                                        verify_cases)
+from bsrflow.physics.kernels_nd import BSRModelND, KernelND, walton_braun_nd
+from bsrflow.physics.motion import HalfSineTaps
+from bsrflow.physics.scenarios_nd import TappedLayer, VibratedBox, resting_profile, run_scenario
+
+DX = 0.004
+W = 2
+LAM = 2e8            # strong enough for a sound speed of order 1 m/s at ρ ~ 1e3 kg/m^n
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _one_thread():
+    """Run this module on one numba thread: the results are thread-count independent (tested
+    below), and on a shared, oversubscribed machine OpenMP barriers make small parallel runs
+    erratically slow."""
+    n0 = numba.get_num_threads()
+    numba.set_num_threads(1)
+    yield
+    numba.set_num_threads(n0)
+
+
+def _model(eps=0.2, gravity=9.81):
+    return BSRModelND(walton_braun_nd(LAM, eps, W * DX), HalfSineTaps(0.002, 10.0, start=0.004), gravity)
+
+
+def _random_state(grid, rng, vacuum_top=True):
+    shape = grid.shape
+    rho = rng.uniform(200.0, 1000.0, shape)
+    if vacuum_top and grid.bc_upper == "vacuum":
+        rho[..., -3:] = 0.0
+        rho[..., -4] *= 0.01
+    u = rng.normal(0.0, 0.3, (grid.dim,) + shape)
+    return u, rho
+
+
+def _rel(a, b):
+    return float(np.max(np.abs(a - b)) / np.max(np.abs(b)))
+
+
+# ---- embedding -----------------------------------------------------------------------------
+def test_horizontally_uniform_state_evolves_as_the_1d_solver():
+    """The verify cases: unfiltered, the seed's average (5.7), the tensor average; 2-D and 3-D."""
+    cases = verify_cases()
+    names = [c["name"] for c in cases]
+    for dim in (2, 3):
+        for suffix in ("", "_filter", "_tensor"):
+            assert f"embedding_{dim}d{suffix}" in names
+    for c in cases:
+        assert set(c) >= {"name", "kind", "stepper", "filter", "resolutions", "errors", "observed_order"}
+        assert c["kind"] == "exact" and len(c["errors"]) == 1
+        assert c["errors"][0] <= 1e-10, c["name"]
+        assert c["details"]["u_horizontal"] == 0.0      # horizontal velocity stays exactly zero
+
+
+def test_embedding_with_velocity_extension_into_vacuum():
+    assert embedding_error(3, filter=True, average="tensor", vacuum_density=1.0) <= 1e-10
+
+
+# ---- quadrature ----------------------------------------------------------------------------
+@pytest.mark.parametrize("dim", [2, 3])
+def test_ball_table_symmetric_and_accurate(dim):
+    o, c, w = ball_quadrature(dim, 3)
+    key = {tuple(x): (tuple(cc), ww) for x, cc, ww in zip(o, c, w)}
+    perms = [(1, 0, 2), (0, 2, 1)] if dim == 3 else [(1, 0)]
+    for x, (cc, ww) in key.items():
+        for s in np.ndindex(*(2,) * dim):
+            sg = np.where(np.array(s) == 1, -1, 1)
+            y = tuple(sg * np.array(x))
+            assert key[y][1] == ww and tuple(sg * np.array(cc)) == key[y][0]   # bitwise
+        for p in perms:
+            y = tuple(np.array(x)[list(p)])
+            assert key[y][1] == ww and tuple(np.array(cc)[list(p)]) == key[y][0]
+    acc = ball_quadrature_accuracy(dim, 3)
+    assert abs(acc["volume_rel_error"]) < 2e-6
+    assert np.all(np.linalg.norm(c, axis=1) <= 3.0 + 1e-12)   # nodes inside the ball
+
+
+# ---- conservation, symmetry ----------------------------------------------------------------
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("average", ["na", "tensor"])
+def test_mass_conserved_with_periodic_boundaries(dim, average, rng):
+    shape = (7, 6, 8) if dim == 3 else (9, 8)
+    grid = GridND(shape, DX, bc_horizontal="periodic", bc_lower="periodic", bc_upper="periodic")
+    sim = SimulationND(_model(), grid, Scheme.preset("seed"), average=average)
+    u, rho = _random_state(grid, rng)
+    res = sim.run(u, rho, 0.01, save_every=0.005)
+    m = res.mass()
+    assert res.steps > 5
+    assert np.max(np.abs(m - m[0])) / m[0] < 1e-13
+
+
+def test_mass_conserved_with_walls_and_floor(rng):
+    """Two steps (each stage and the average widen the support by one cell), so nothing reaches
+    the vacuum top, where mass may leave by design."""
+    grid = GridND((6, 5, 16), DX, bc_horizontal="wall", bc_lower="floor", bc_upper="vacuum")
+    sim = SimulationND(_model(), grid, Scheme.preset("seed", dt=2e-4))
+    u, rho = _random_state(grid, rng)
+    rho[..., 7:] = 0.0
+    res = sim.run(u, rho, 4e-4)
+    m = res.mass()
+    assert res.steps == 2 and res.rho[-1][..., -1].max() == 0.0
+    assert abs(m[-1] - m[0]) / m[0] < 1e-14
+
+
+def _rotate(u, rho):
+    """Rotation by +90° about the vertical: position (x, y) -> (-y, x), u -> R u."""
+    rot = lambda a: np.rot90(a, 1, axes=(0, 1))  # noqa: E731
+    return np.stack([rot(-u[1]), rot(u[0]), rot(u[2])]), rot(rho)
+
+
+def _reflect(u, rho):
+    """Reflection x -> -x."""
+    return np.stack([-u[0][::-1]] + [c[::-1] for c in u[1:]]), rho[::-1]
+
+
+@pytest.mark.parametrize("sides", ["periodic", "wall"])
+def test_rotation_and_reflection_commute_with_the_solver(sides, rng):
+    grid = GridND((6, 6, 10), DX, bc_horizontal=sides, bc_lower="floor", bc_upper="vacuum")
+    sim = SimulationND(_model(), grid, Scheme.preset("seed"))
+    u, rho = _random_state(grid, rng)
+    t_end = 0.006
+    base = sim.run(u, rho, t_end)
+    ua, ra = base.u[-1], base.rho[-1]
+    for op in (_rotate, _reflect):
+        ub0, rb0 = op(u, rho)
+        res = sim.run(ub0, rb0, t_end)
+        ue, re = op(ua, ra)
+        assert _rel(res.u[-1], ue) < 1e-12 and _rel(res.rho[-1], re) < 1e-12
+
+
+def test_reflection_2d(rng):
+    grid = GridND((8, 10), DX, bc_horizontal="wall", bc_lower="floor", bc_upper="vacuum")
+    sim = SimulationND(_model(), grid, Scheme.preset("seed"))
+    u, rho = _random_state(grid, rng)
+    a = sim.run(u, rho, 0.006)
+    b = sim.run(*_reflect(u, rho), 0.006)
+    ue, re = _reflect(a.u[-1], a.rho[-1])
+    assert _rel(b.u[-1], ue) < 1e-12 and _rel(b.rho[-1], re) < 1e-12
+
+
+# ---- compiled vs reference -----------------------------------------------------------------
+GRIDS = [
+    ((9, 10), dict(bc_horizontal="periodic", bc_lower="floor", bc_upper="vacuum")),
+    ((7, 6, 9), dict(bc_horizontal="wall", bc_lower="floor", bc_upper="vacuum")),
+    ((6, 7, 8), dict(bc_horizontal=("periodic", "wall"), bc_lower="mirror", bc_upper="vacuum")),
+    ((5, 6, 7), dict(bc_horizontal="periodic", bc_lower="periodic", bc_upper="periodic")),
+]
+
+
+@pytest.mark.parametrize("shape, bcs", GRIDS)
+def test_rhs_matches_numpy_reference(shape, bcs, rng):
+    grid = GridND(shape, DX, **bcs)
+    sim = SimulationND(_model(), grid)
+    ref = ReferenceND(sim)
+    u, rho = _random_state(grid, rng)
+    du, dr = sim.rhs(u, rho, 0.007)
+    du_r, dr_r = ref.rhs(u, rho, 0.007)
+    assert _rel(du, du_r) < 1e-12 and _rel(dr, dr_r) < 1e-12
+
+
+@pytest.mark.parametrize("shape, bcs", GRIDS[:2])
+@pytest.mark.parametrize("average, vac", [("na", 0.0), ("tensor", 300.0)])
+def test_steps_match_numpy_reference(shape, bcs, average, vac, rng):
+    grid = GridND(shape, DX, **bcs)
+    sim = SimulationND(_model(), grid, Scheme(stepper="kutta3", filter=True, dt=2e-4), average=average,
+                       vacuum_density=vac)
+    ref = ReferenceND(sim)
+    u, rho = _random_state(grid, rng)
+    ur, rr = u.copy(), rho.copy()
+    t = 0.001
+    for _ in range(3):
+        ur, rr = ref.step(ur, rr, t, 2e-4)
+        t += 2e-4
+    ui, ri = to_internal(grid, u, rho)
+    ui, ri = ui.copy(), ri.copy()
+    t1, steps, status, _, _ = sim.advance_internal(ui, ri, 0.001, 0.001 + 6e-4)
+    assert status == 0 and steps == 3
+    uc = np.stack([ui[0][:, 0, :], ui[2][:, 0, :]]) if grid.dim == 2 else ui
+    rc = ri[:, 0, :] if grid.dim == 2 else ri
+    assert _rel(uc, ur) < 1e-12 and _rel(rc, rr) < 1e-12
+
+
+def test_results_do_not_depend_on_the_thread_count(rng):
+    grid = GridND((8, 7, 10), DX, bc_horizontal="wall", bc_lower="floor", bc_upper="vacuum")
+    sim = SimulationND(_model(), grid, Scheme.preset("seed"))
+    u, rho = _random_state(grid, rng)
+    n0 = numba.get_num_threads()
+    out = []
+    try:
+        for n in sorted({1, numba.config.NUMBA_NUM_THREADS}):
+            numba.set_num_threads(n)
+            r = sim.run(u, rho, 0.004)
+            out.append((r.u[-1], r.rho[-1]))
+    finally:
+        numba.set_num_threads(n0)
+    for uu, rr in out[1:]:
+        assert np.array_equal(uu, out[0][0]) and np.array_equal(rr, out[0][1])
+
+
+# ---- physics -------------------------------------------------------------------------------
+def test_resting_layer_is_a_discrete_equilibrium():
+    setup = TappedLayer(dim=3, surface_perturbation=0.0, box_width=0.024)
+    grid = setup.grid()
+    sim = SimulationND(setup.model(), grid)
+    u, rho = setup.initial_state(grid)
+    du, dr = sim.rhs(u, rho, 0.0)
+    material = rho > 0
+    assert np.max(np.abs(du[:, material])) < 1e-10 * setup.gravity
+    assert np.max(np.abs(dr)) == 0.0
+    prof = resting_profile(3, 2, setup.dx, setup.layer_cells, setup.gravity)
+    assert np.all(np.diff(prof) < 0) and prof[-1] > 0     # decreasing, with a jump at the top
+
+
+def test_density_bump_spreads_and_relative_motion_decays():
+    """Repulsive kernel in 3-D (no gravity, periodic, unfiltered): a bump spreads (elastic
+    kernel); with ε > 0 the kinetic energy of a compression-and-shear wave ends well below the
+    elastic run's."""
+    grid = GridND((10, 10, 10), DX, bc_horizontal="periodic", bc_lower="periodic", bc_upper="periodic")
+    X = grid.mesh()
+    c = [0.5 * 10 * DX] * 3
+    r2 = sum((x - cc) ** 2 for x, cc in zip(X, c))
+    rho0 = 2000.0 * (1.0 + 0.3 * np.exp(-r2 / (3 * DX) ** 2))
+    scheme = Scheme.preset("seed", filter=False)
+    elastic = SimulationND(_model(eps=0.0, gravity=0.0), grid, scheme)
+    res = elastic.run(np.zeros((3,) + grid.shape), rho0, 0.01)
+    assert res.rho[-1].max() < rho0.max() - 0.2 * (rho0.max() - 2000.0)
+    assert res.rho[-1].min() > 0
+    u0 = np.zeros((3,) + grid.shape)
+    u0[0] = 0.2 * np.sin(2 * np.pi * X[2] / (10 * DX))      # shear: u_x varying with z
+    u0[2] = 0.2 * np.sin(2 * np.pi * X[2] / (10 * DX))      # compression along z
+    rho = np.full(grid.shape, 2000.0)
+    ke0 = elastic.run(u0, rho, 0.03).kinetic_energy()
+    ke1 = SimulationND(_model(eps=0.3, gravity=0.0), grid, scheme).run(u0, rho, 0.03).kinetic_energy()
+    assert ke1[-1] < 0.8 * ke0[-1]
+
+
+@pytest.fixture(scope="module")
+def scenario_runs():
+    return {cls.__name__: run_scenario(cls()) for cls in (TappedLayer, VibratedBox)}
+
+
+@pytest.mark.parametrize("name", ["TappedLayer", "VibratedBox"])
+def test_shipped_scenarios_run(name, scenario_runs):
+    run = scenario_runs[name]
+    setup = run.setup
+    assert run.result.status == "ok" and run.result.t[-1] == pytest.approx(setup.t_end)
+    assert run.relative_mass_drift < 1e-10
+    assert np.all(np.isfinite(run.result.rho)) and np.all(np.isfinite(run.result.u))
+    # small undershoots at receding free surfaces (central differences of ρu next to vacuum)
+    assert run.min_density.min() > -0.01 * setup.bottom_density
+    assert run.floor.max() > 0.5 * setup.amplitude        # the floor did move
+
+
+@pytest.mark.xfail(strict=True, reason="central differences of the mass flux next to a receding free "
+                   "surface make the density slightly negative (about -0.3 % of the bottom density); "
+                   "the seed's scheme has no positivity mechanism")
+@pytest.mark.parametrize("name", ["TappedLayer", "VibratedBox"])
+def test_shipped_scenario_density_non_negative(name, scenario_runs):
+    assert scenario_runs[name].min_density.min() >= 0.0
+
+
+# ---- input validation ----------------------------------------------------------------------
+def test_bad_inputs_give_clear_errors():
+    with pytest.raises(ValueError, match="shape"):
+        GridND((4,), DX)
+    with pytest.raises(ValueError, match="dx"):
+        GridND((4, 4), -1.0)
+    with pytest.raises(ValueError, match="bc_horizontal"):
+        GridND((4, 4), DX, bc_horizontal="floor")
+    with pytest.raises(ValueError, match="bc_lower"):
+        GridND((4, 4), DX, bc_lower="wall")
+    with pytest.raises(ValueError, match="dissipation"):
+        walton_braun_nd(1.0, 1.5, 0.01)
+    with pytest.raises(ValueError, match="radius"):
+        KernelND(lambda z, a, b, p: z, [1.0], -1.0)
+    with pytest.raises(ValueError, match="kernel radius"):
+        SimulationND(BSRModelND(walton_braun_nd(1.0, 0.1, 2.5 * DX)), GridND((8, 8), DX))
+    with pytest.raises(ValueError, match="average"):
+        SimulationND(_model(), GridND((8, 8), DX), average="box")
+    sim = SimulationND(_model(), GridND((8, 8), DX))
+    with pytest.raises(ValueError, match="rho0 has shape"):
+        sim.run(np.zeros((2, 8, 8)), np.zeros((8, 7)), 0.1)
+    with pytest.raises(ValueError, match="rho0 has negative"):
+        sim.run(np.zeros((2, 8, 8)), -np.ones((8, 8)), 0.1)
+    with pytest.raises(ValueError, match="layer_height"):
+        TappedLayer(layer_height=0.004)
