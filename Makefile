@@ -7,7 +7,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 OUT    ?= out
 
-.PHONY: demo test test-slow verify stability compare bench install clean
+.PHONY: demo test test-slow verify stability analysis compare bench install clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -32,11 +32,17 @@ verify: $(STAMP)
 stability: $(STAMP)
 	$(BIN)/bsrflow stability --json $(OUT)/stability.json --figures $(OUT)/stability
 
+# all analysis figures and JSON of chapter 5 / Appendix A (stability, kinetic energy, wave speed)
+analysis: $(STAMP)
+	$(BIN)/bsrflow stability --json $(OUT)/stability.json --figures $(OUT)/stability
+	$(BIN)/bsrflow energy --json $(OUT)/energy.json --figures $(OUT)/energy
+
 compare: $(STAMP)
 	$(BIN)/bsrflow compare --json $(OUT)/compare.json --figures $(OUT)/compare
 
 bench: $(STAMP)
 	$(BIN)/python bench/bench_step.py --json bench/results.json
+	$(BIN)/python bench/bench_schemes.py --json bench/results_schemes.json
 
 clean:
 	rm -rf $(VENV) $(OUT) build src/*.egg-info

@@ -138,7 +138,8 @@ class ColumnSetup:
 
     def energy_bound_height(self) -> float:
         """Domain height [m] from the energy bound (module docstring)."""
-        v = 3.0 * self.amplitude * self.omega + 2.0 * self.sound_speed()
+        launch = 3.0 * self.amplitude * self.omega if self.n_taps > 0 else 0.0
+        v = launch + 2.0 * self.sound_speed()
         return self.n_spheres * self.diameter + v * v / (2.0 * self.gravity) + 3.0 * self.diameter
 
     def height(self) -> float:
