@@ -122,6 +122,22 @@ class SimulationResult:
         return 0.5 * (self.rho * self.u ** 2).sum(axis=1) * dx
 
 
+def save_schedule(t_start, t_end, save_every=None, save_times=None) -> np.ndarray:
+    """Sorted output times [s] in [t_start, t_end]: ``save_times`` if given, else every
+    ``save_every`` from t_start plus t_end, else just the two ends."""
+    if save_times is None:
+        if save_every is None:
+            save_times = np.array([t_start, t_end])
+        else:
+            if not (save_every > 0):
+                raise ValueError(f"save_every = {save_every!r} is outside the valid range (0, inf) s")
+            n = int(np.floor((t_end - t_start) / save_every + 1e-9))
+            save_times = t_start + save_every * np.arange(n + 1)
+            if save_times[-1] < t_end - 1e-12 * max(1.0, abs(t_end)):
+                save_times = np.append(save_times, t_end)
+    return np.unique(np.clip(np.asarray(save_times, float), t_start, t_end))
+
+
 class SimulationError(RuntimeError):
     """A run stopped early. ``.result`` holds every snapshot saved before the stop;
     ``.time`` [s] and ``.position`` [m] say when and where."""
@@ -249,17 +265,7 @@ class Simulation:
         if not (np.isfinite(t_end) and t_end > t_start):
             raise ValueError(f"t_end = {t_end!r} must be finite and greater than t_start = {t_start!r}")
         tr = np.zeros(0) if tracers is None else np.array(tracers, dtype=float, copy=True).reshape(-1)
-        if save_times is None:
-            if save_every is None:
-                save_times = np.array([t_start, t_end])
-            else:
-                if not (save_every > 0):
-                    raise ValueError(f"save_every = {save_every!r} is outside the valid range (0, inf) s")
-                n = int(np.floor((t_end - t_start) / save_every + 1e-9))
-                save_times = t_start + save_every * np.arange(n + 1)
-                if save_times[-1] < t_end - 1e-12 * max(1.0, abs(t_end)):
-                    save_times = np.append(save_times, t_end)
-        save_times = np.unique(np.clip(np.asarray(save_times, float), t_start, t_end))
+        save_times = save_schedule(t_start, t_end, save_every, save_times)
         jumps = self.model.motion.jumps_between(t_start, t_end)
         events = sorted(set(save_times.tolist()) | {tj for tj, _ in jumps})
 

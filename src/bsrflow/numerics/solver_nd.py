@@ -50,7 +50,7 @@ from .compiled_nd import make_core_nd
 from .grid import Grid1D
 from .grid_nd import GridND, ball_quadrature
 from .quadrature import quadrature_weights
-from .solver import Scheme, Simulation, SimulationError
+from .solver import Scheme, Simulation, SimulationError, save_schedule
 from .steppers import get_stepper
 
 __all__ = ["SimulationND", "ResultND", "ReferenceND", "induced_kernel_1d", "embedding_error",
@@ -303,17 +303,7 @@ class SimulationND:
             raise ValueError(f"rho0 has negative values (min {ri.min():.3g} kg/m^{g.dim}); density must be >= 0")
         if not (np.isfinite(t_end) and t_end > t_start):
             raise ValueError(f"t_end = {t_end!r} must be finite and greater than t_start = {t_start!r}")
-        if save_times is None:
-            if save_every is None:
-                save_times = np.array([t_start, t_end])
-            else:
-                if not (save_every > 0):
-                    raise ValueError(f"save_every = {save_every!r} is outside the valid range (0, inf) s")
-                n = int(np.floor((t_end - t_start) / save_every + 1e-9))
-                save_times = t_start + save_every * np.arange(n + 1)
-                if save_times[-1] < t_end - 1e-12 * max(1.0, abs(t_end)):
-                    save_times = np.append(save_times, t_end)
-        save_times = np.unique(np.clip(np.asarray(save_times, float), t_start, t_end))
+        save_times = save_schedule(t_start, t_end, save_every, save_times)
         motion = self.model.motion
         jumps = motion.jumps_between(t_start, t_end)
         events = sorted(set(save_times.tolist()) | {tj for tj, _ in jumps})
