@@ -170,3 +170,44 @@ def test_solver_unstable_without_filter_at_small_nu(stepper, rng):
     steps = int(math.ceil(math.log(1e4) / math.log(g)))
     rho = _advect(stepper, False, nu, rho0, steps)
     assert np.max(np.abs(rho - rho.mean())) / np.max(np.abs(rho0 - rho0.mean())) > 50.0
+
+
+def _seed_variant_step(v, nu, coeffs, filt):
+    """One step of the seed's section-5.4 scheme as a stencil (not the shipped solver): the k-th
+    term of the stability polynomial uses D1^(k mod 2) D2^(k div 2), D1 v = (v_{m+1}-v_{m-1})/2,
+    D2 v = v_{m+1} - 2 v_m + v_{m-1}; then the moving average if ``filt``."""
+    d1 = lambda w: 0.5 * (np.roll(w, -1) - np.roll(w, 1))
+    d2 = lambda w: np.roll(w, -1) - 2 * w + np.roll(w, 1)
+    out = np.zeros_like(v)
+    for k, rk in enumerate(coeffs):
+        w = v.copy()
+        for _ in range(k // 2):
+            w = d2(w)
+        if k % 2:
+            w = d1(w)
+        out += rk * (-nu) ** k * w
+    if filt:
+        out = 0.25 * (np.roll(out, 1) + 2 * out + np.roll(out, -1))
+    return out
+
+
+@pytest.mark.parametrize("stepper,filt", [("euler", True), ("heun", False), ("heun", True), ("kutta3", False),
+                                          ("kutta3", True), ("rk4", False), ("rk4", True)])
+def test_seed_variant_limits_confirmed_by_iterating_its_stencil(stepper, filt):
+    """The seed-variant limits printed by `bsrflow stability` are confirmed empirically too: the
+    seed's stencils iterated at 0.98x the limit stay bounded, at 1.02x they grow."""
+    from bsrflow.analysis import stability as st
+    limit = st.cfl_limit(stepper, filt, "seed")
+    coeffs = [float(c) for c in st.stability_polynomial_coefficients(stepper)]
+    gmax = st.max_amplification([1.02 * limit], stepper, filt, "seed")[0][0]
+    steps = int(min(200000, max(1000, np.log(1e4) / np.log(gmax))))
+    rng = np.random.default_rng(7)
+    v0 = rng.standard_normal(128)
+    ratios = []
+    for f in (0.98, 1.02):
+        v = v0 - v0.mean()
+        for _ in range(steps):
+            v = _seed_variant_step(v, f * limit, coeffs, filt)
+        ratios.append(np.max(np.abs(v)) / np.max(np.abs(v0 - v0.mean())))
+    assert ratios[0] < 1.5
+    assert ratios[1] > 50
