@@ -69,3 +69,23 @@ def test_accurate_preset_orders():
                                     steps=(64, 128, 256))
     assert space["observed_order"] >= 1.95
     assert time_["observed_order"] >= 3.0
+
+
+def test_adaptive_stepping_tracks_the_tolerance():
+    """Embedded pair (bs32) with error control below the CFL bound: the error falls with rtol about
+    in proportion, and rejected steps are counted."""
+    from bsrflow import Grid1D, Simulation
+    g = Grid1D(0.0, 1.0, 128)
+    m = verify.smooth_model()
+    u0, r0 = verify.smooth_initial(g.x)
+    ref = Simulation(m, g, Scheme(stepper="rk4", filter=False, dt=0.15 / 2048)).run(u0, r0, 0.15)
+    errs, steps = [], []
+    for rtol in (1e-8, 1e-10):
+        sim = Simulation(m, g, Scheme(stepper="bs32", filter=False, rtol=rtol, atol=(rtol, rtol), cfl=1.0))
+        r = sim.run(u0, r0, 0.15)
+        errs.append(verify.relative_error(r.u[-1], r.rho[-1], ref.u[-1], ref.rho[-1]))
+        steps.append(r.steps)
+        assert r.info["rejected_steps"] >= 0
+    assert errs[1] < errs[0] / 30 and steps[1] > 2 * steps[0]
+    with pytest.raises(ValueError, match="embedded"):
+        Scheme(stepper="rk4", rtol=1e-6)

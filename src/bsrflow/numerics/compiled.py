@@ -280,7 +280,8 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
     @numba.njit(cache=False)
     def advance(u, rho, t, t_end, dt_fixed, cfl, kappa, A, b, c, filt, bcl, bch, xlo, dx, W, qz, qw,
                 kp, grav, ep, mp, bp, dt_min, rho_max, max_steps, strain_limit, top_tol,
-                tracers, tracer_mode, vac_thr, hyper, positivity, sel_tau):
+                tracers, tracer_mode, vac_thr, hyper, positivity, sel_tau, bhat, rtol, atol_u, atol_r,
+                err_order, counters):
         """Advance (u, rho, tracers) in place from t to t_end.
 
         dt: ``dt_fixed`` if > 0, else cfl Δx / (max|u| + sqrt(κ max ρ)); the last step is
@@ -304,6 +305,8 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
         status = 0
         where = -1
         dt = 0.0
+        adaptive = rtol > 0.0
+        dt_prop = 1e300
         while t < t_end:
             if dt_fixed > 0.0:
                 dt = dt_fixed
@@ -318,6 +321,8 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
                         rmax = rho[i]
                 speed = umax + math.sqrt(kappa * rmax)
                 dt = cfl * dx / speed if speed > 0.0 else t_end - t
+            if adaptive and dt_prop < dt:
+                dt = dt_prop
             last = False
             if t + dt >= t_end - 1e-12 * max(abs(t_end), dt):
                 dt = t_end - t
@@ -351,6 +356,31 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
                                 xt[n] += dt * A[st, j] * vt[j, n]
                         vt[st, n] = interp(up, G, N, xlo, dx, xt[n])
                 rhs(ts, up, rp, G, N, xlo, dx, W, qz, qw, kp, grav, ep, mp, ku[st], kr[st], bcl, hyper, kappa)
+            if adaptive:
+                # embedded error estimate  Δt Σ (b_j - b̂_j) k_j, scaled by atol + rtol |y|
+                err = 0.0
+                for i in range(N):
+                    eu = 0.0
+                    er = 0.0
+                    for j in range(s):
+                        eu += (b[j] - bhat[j]) * ku[j, i]
+                        er += (b[j] - bhat[j]) * kr[j, i]
+                    eu = abs(dt * eu) / (atol_u + rtol * abs(u[i]))
+                    er = abs(dt * er) / (atol_r + rtol * abs(rho[i]))
+                    if eu > err:
+                        err = eu
+                    if er > err:
+                        err = er
+                fac = 0.9 * err ** (-1.0 / err_order) if err > 0.0 else 5.0
+                if err > 1.0:
+                    counters[0] += 1
+                    dt_prop = dt * max(0.2, fac)
+                    if dt_prop < dt_min:
+                        status = 3
+                        where = 0
+                        break
+                    continue
+                dt_prop = dt * min(5.0, fac)
             if strain_limit > 0.0:
                 # gradient-catastrophe monitor on the start-of-step velocity (ghosts of stage 0
                 # are overwritten; recompute with one-sided ends)

@@ -41,6 +41,11 @@ class Scheme:
         independent of Δt, conservative.  0 for the seed's scheme.
     positivity : after every step, set negative densities to 0 taking the deficit from the
         nearest positive cells (mass-conserving; ``compiled.make_positive``).
+    rtol, atol : adaptive time stepping with the stepper's embedded pair (e.g. 'bs32',
+        'kutta3', 'heun'): a step is accepted when max_i |Δt Σ (b_j - b̂_j) k_j| / (atol + rtol |y_i|)
+        <= 1 over u and ρ (atol = (atol_u [m/s], atol_ρ [kg/m])), else rejected and retried with a
+        smaller step; the CFL bound still caps the step.  rtol None: off.  Rejected steps are
+        counted (``SimulationResult.info['rejected_steps']``).
     selective_filter : τ > 0 applies the moving average (when ``filter`` is off) only at faces
         next to cells whose smoothness sensor exceeds τ (``compiled.selective_average``).
     """
@@ -54,6 +59,8 @@ class Scheme:
     hyperdiffusion: float = 0.0
     positivity: bool = False
     selective_filter: float = 0.0
+    rtol: float | None = None
+    atol: tuple = (1e-6, 1e-6)
     name: str = "custom"
 
     def __post_init__(self):
@@ -68,6 +75,16 @@ class Scheme:
             raise ValueError(f"hyperdiffusion = {self.hyperdiffusion!r} is outside the valid range [0, 0.1]")
         if not (np.isfinite(self.selective_filter) and 0.0 <= self.selective_filter <= 1.0):
             raise ValueError(f"selective_filter = {self.selective_filter!r} is outside the valid range [0, 1]")
+        if self.rtol is not None:
+            if not (np.isfinite(self.rtol) and 0 < self.rtol < 1):
+                raise ValueError(f"rtol = {self.rtol!r} is outside the valid range (0, 1)")
+            if get_stepper(self.stepper).b_embedded is None:
+                raise ValueError(f"rtol given but stepper = {self.stepper!r} has no embedded pair; "
+                                 "use one of 'heun', 'kutta3', 'bs32'")
+            if self.dt is not None:
+                raise ValueError("rtol (adaptive stepping) and a fixed dt cannot both be given")
+        if len(self.atol) != 2 or not all(np.isfinite(a) and a > 0 for a in self.atol):
+            raise ValueError(f"atol = {self.atol!r} must be two positive numbers (m/s, kg/m)")
         if self.tracer_integrator not in ("euler", "rk"):
             raise ValueError(f"tracer_integrator = {self.tracer_integrator!r} is not one of ('euler', 'rk')")
 
@@ -191,6 +208,10 @@ class Simulation:
         self.W = W
         self.qz, self.qw = quadrature_weights(W, grid.dx, self.scheme.quadrature)
         self.tableau = get_stepper(self.scheme.stepper)
+        tb = self.tableau
+        self._bhat = tb.b_embedded if tb.b_embedded is not None else tb.b.copy()
+        self._err_order = (tb.embedded_order or tb.order) + 1
+        self.counters = np.zeros(2, dtype=np.int64)
         self.kappa = model.kernel.stiffness_moment()
         self.rho_max = float(rho_max)
         self.dt_min = float(dt_min)
@@ -220,7 +241,9 @@ class Simulation:
             self.qw, self.model.kernel.params, float(self.model.gravity), self.model.external_params,
             self.model.motion.params, self.model.boundary_params, self.dt_min, self.rho_max,
             int(max_steps or self.max_steps), self.strain_limit, self.top_tolerance, tr, mode,
-            self.vacuum_density, float(s.hyperdiffusion), bool(s.positivity), float(s.selective_filter))
+            self.vacuum_density, float(s.hyperdiffusion), bool(s.positivity), float(s.selective_filter),
+            self._bhat, float(s.rtol or 0.0), float(s.atol[0]), float(s.atol[1]), float(self._err_order),
+            self.counters)
 
     def rhs(self, u, rho, t):
         """Semi-discrete right-hand side (du/dt, dρ/dt) at time t."""
@@ -288,9 +311,11 @@ class Simulation:
                                     np.array(trs).reshape(len(ts), tr.size), np.array(fl), total_steps,
                                     _time.perf_counter() - wall0, status,
                                     {"scheme": self.scheme.to_dict(), "grid": g.to_dict(),
-                                     "model": self.model.to_dict()})
+                                     "model": self.model.to_dict(),
+                                     "rejected_steps": int(self.counters[0] - rejected0)})
 
         wall0 = _time.perf_counter()
+        rejected0 = int(self.counters[0])
         total_steps = 0
         t = float(t_start)
         save_set = set(save_times.tolist())
