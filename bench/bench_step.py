@@ -1,11 +1,19 @@
-"""Benchmark: the compiled 1-D step against the plain NumPy reference of the same scheme,
-measured in the same run on the same tapped-column grid, one core.
+"""Benchmark (issue #8): the compiled 1-D step against the plain NumPy reference of the same
+scheme, measured in the same run on the same tapped-column grids, one core; the wall time of
+the default 2-s column; DEM against BSR for 20, 200 and 2000 spheres; a profile.
 
-    python bench/bench_step.py --json bench/results.json [--repeats 5]
+    python bench/bench_step.py --json bench/results.json [--repeats 5] [--quick]
 
-Prints cell-stage updates per second (csups = cells x stages x steps / s) for 10 and 40 grid
-points per diameter (ppd10, ppd40), the speed-up of the compiled step over the reference, and
-checks the two give the same state (relative difference printed).  Medians of repeats.
+States.  The step's cost depends on the state (the interaction integral's fast paths), so it
+is measured on the default tapped column (``bsrflow init``'s defaults: seed scheme, a/d = 0.75,
+f = 10 Hz, m0 = 406 kg, ε = 0.9) at five times of its run: 0.3 s (settled before the tap), 0.45 s
+(launch), 0.6 s (flight), 0.9 s (landing), 1.3 s (settling).  At each state both codes take
+steps of the same fixed Δt (the CFL step of that state); csups = cells × stages × steps / s
+(all cells of the grid, vacuum included); the reported csups is the total over the five states
+(Σ cell-stages / Σ median times).  "Results unchanged": after the same number of steps from the
+same state, the largest relative difference (max-norm) of u and ρ between the compiled code and
+the NumPy reference, and between the fast and the direct integral.  Timings are medians of
+``--repeats`` runs; compilation is excluded.
 """
 
 from __future__ import annotations
@@ -20,71 +28,214 @@ import time
 import numba
 import numpy as np
 
+from bsrflow.numerics.compiled import direct_integral
 from bsrflow.numerics.reference import ReferenceScheme
 from bsrflow.numerics.solver import Scheme, Simulation
-from bsrflow.physics.column import ColumnSetup, initial_density
+from bsrflow.physics.column import ColumnSetup, initial_density, run_bsr_column
+
+DEFAULTS = dict(m0=406.0, kernel_dissipation=0.9, a_over_d=0.75, frequency=10.0)
+STATE_TIMES = (0.3, 0.45, 0.6, 0.9, 1.3)
 
 
-def column_sim(ppd: int, dt: float):
-    s = ColumnSetup(points_per_diameter=ppd, m0=410.0, kernel_dissipation=0.83)
-    grid = s.grid()
-    line = s.particle_mass / s.diameter
-    sim = Simulation(s.model(), grid, Scheme.preset("seed", dt=dt), vacuum_density=1e-4 * line)
-    rng = np.random.default_rng(0)
-    rho = initial_density(s, grid.x)
-    u = 0.01 * rng.standard_normal(grid.n_cells) * (rho > 0)
-    return sim, u, rho
+def _setup(ppd, **kw):
+    return ColumnSetup(points_per_diameter=ppd, **dict(DEFAULTS, **kw))
 
 
-def bench(ppd: int, repeats: int, steps_c: int, steps_r: int):
-    dt = 1e-5
-    sim, u0, r0 = column_sim(ppd, dt)
-    stages = sim.tableau.stages
-    n = sim.grid.n_cells
-    ref = ReferenceScheme(sim)
-    u, r = u0.copy(), r0.copy()
-    sim.advance(u, r, 0.0, dt)                          # compile
-    tc, tr = [], []
+def _sim(setup, scheme, **kw):
+    line = setup.particle_mass / setup.diameter
+    return Simulation(setup.model(), setup.grid(), scheme, vacuum_density=1e-4 * line,
+                      top_tolerance=1e-3 * line, **kw)
+
+
+def column_states(ppd):
+    """(t, u, ρ, CFL Δt) of the default column at STATE_TIMES (velocity jumps applied)."""
+    s = _setup(ppd, t_end=max(STATE_TIMES))
+    sim = _sim(s, Scheme.preset("seed"))
+    grid = sim.grid
+    res = sim.run(np.zeros(grid.n_cells), initial_density(s, grid.x), s.t_end, save_times=STATE_TIMES)
+    states = []
+    for k, t in enumerate(res.t):
+        u, r = res.u[k].copy(), res.rho[k].copy()
+        tt, _, _, _, dt = sim.advance(u.copy(), r.copy(), t, t + 1.0, max_steps=1)
+        states.append((float(t), u, r, float(dt)))
+    return s, states
+
+
+def _median_time(fn, repeats):
+    times = []
     for _ in range(repeats):
-        u, r = u0.copy(), r0.copy()
         w = time.perf_counter()
-        sim.advance(u, r, 0.0, steps_c * dt)
-        tc.append(time.perf_counter() - w)
-    for _ in range(repeats):
+        fn()
+        times.append(time.perf_counter() - w)
+    return statistics.median(times), times
+
+
+def bench_grid(ppd, repeats, steps_c, steps_r):
+    s, states = column_states(ppd)
+    per_state = []
+    tot_c = tot_d = tot_r = 0.0
+    work_c = work_d = work_r = 0.0
+    worst_ref = worst_direct = 0.0
+    for t, u0, r0, dt in states:
+        fast = _sim(s, Scheme.preset("seed", dt=dt))
+        direct = _sim(s, Scheme.preset("seed", dt=dt), integral="direct", skip_vacuum=False)
+        n = fast.grid.n_cells
+        stages = fast.tableau.stages
+        for sim in (fast, direct):                             # compile
+            sim.advance(u0.copy(), r0.copy(), t, t + dt)
+
+        def run(sim, k):
+            sim.advance(u0.copy(), r0.copy(), t, t + k * dt)
+
+        tc, tcs = _median_time(lambda: run(fast, steps_c), repeats)
+        td, tds = _median_time(lambda: run(direct, max(1, steps_c // 4)), repeats)
+        ref = ReferenceScheme(direct)
+        tr, trs = _median_time(lambda: ref.run_fixed(u0.copy(), r0.copy(), t, dt, steps_r), repeats)
+        # results unchanged: the same steps three ways
+        ur, rr = ref.run_fixed(u0.copy(), r0.copy(), t, dt, steps_r)
+        uc, rc = u0.copy(), r0.copy()
+        fast.advance(uc, rc, t, t + steps_r * dt)
+        ud, rd = u0.copy(), r0.copy()
+        direct.advance(ud, rd, t, t + steps_r * dt)
+        rel = lambda a, b: float(np.max(np.abs(a - b)) / max(np.max(np.abs(b)), 1e-300))
+        d_ref = max(rel(uc, ur), rel(rc, rr))
+        d_dir = max(rel(uc, ud), rel(rc, rd))
+        worst_ref = max(worst_ref, d_ref)
+        worst_direct = max(worst_direct, d_dir)
+        cs_c, cs_d, cs_r = n * stages * steps_c, n * stages * max(1, steps_c // 4), n * stages * steps_r
+        tot_c += tc
+        tot_d += td
+        tot_r += tr
+        work_c += cs_c
+        work_d += cs_d
+        work_r += cs_r
+        per_state.append({"t": t, "dt": dt, "cells": n, "material_cells": int(np.sum(r0 > 1e-4 * r0.max())),
+                          "bsrflow_csups": cs_c / tc, "direct_integral_csups": cs_d / td,
+                          "numpy_csups": cs_r / tr, "speedup": (cs_c / tc) / (cs_r / tr),
+                          "max_rel_diff_vs_numpy": d_ref, "max_rel_diff_fast_vs_direct": d_dir,
+                          "times_s": {"bsrflow": tcs, "direct": tds, "numpy": trs}})
+    return {"cells": states and int(len(states[0][1])), "kernel_radius_cells": ppd,
+            "bsrflow_csups": work_c / tot_c, "direct_integral_csups": work_d / tot_d,
+            "numpy_csups": work_r / tot_r, "speedup": (work_c / tot_c) / (work_r / tot_r),
+            "speedup_over_direct_integral": (work_c / tot_c) / (work_d / tot_d),
+            "max_rel_diff_vs_numpy": worst_ref, "max_rel_diff_fast_vs_direct": worst_direct,
+            "steps": {"bsrflow": steps_c, "numpy": steps_r}, "states": per_state}
+
+
+def profile(ppd, repeats):
+    """Time per cell of each piece of a step, on the 1.3-s state (one core)."""
+    s, states = column_states(ppd)
+    t, u, r, dt = states[-1]
+    sim = _sim(s, Scheme.preset("seed", dt=dt))
+    g = sim.grid
+    N, W = g.n_cells, sim.W
+    G = max(W, 2)
+    up, rp = np.empty(N + 2 * G), np.empty(N + 2 * G)
+    du, dr, out = np.empty(N), np.empty(N), np.empty(N)
+    c = sim.core
+    kp, bp = sim.model.kernel.params, sim.model.boundary_params
+    fill = lambda: c.fill_ghosts(u, r, t, up, rp, G, 1, 2, 0.0, g.dx, bp)
+    fill()
+    fast = sim.model.kernel.fast_integral
+    direct = direct_integral(sim.model.kernel.compiled)
+    pieces = {
+        "fill_ghosts": fill,
+        "integral_fast": lambda: fast(up, rp, G, N, W, sim.qz, sim.qw, kp, out),
+        "integral_direct": lambda: direct(up, rp, G, N, W, sim.qz, sim.qw, kp, out),
+        "rhs_with_fast_integral": lambda: c.rhs(t, up, rp, G, N, 0.0, g.dx, W, sim.qz, sim.qw, kp,
+                                                sim.model.gravity, sim.model.external_params,
+                                                sim.model.motion.params, du, dr, 1, 0.0, sim.kappa),
+        "extend_velocity": lambda: c.extend_velocity(u.copy(), r, sim.vacuum_density),
+        "moving_average": lambda: c.moving_average(u.copy(), r.copy(), up, rp, G, 1),
+    }
+    n_rep = 200
+    prof = {}
+    for name, fn in pieces.items():
+        fn()
+        med, _ = _median_time(lambda: [fn() for _ in range(n_rep)], repeats)
+        prof[name + "_ns_per_cell"] = med / n_rep / N * 1e9
+    u2, r2 = u.copy(), r.copy()
+    sim.advance(u2, r2, t, t + dt)
+    med, _ = _median_time(lambda: sim.advance(u.copy(), r.copy(), t, t + 100 * dt), repeats)
+    prof["whole_step_ns_per_cell_stage"] = med / 100 / N / sim.tableau.stages * 1e9
+    prof["state_t"] = t
+    prof["cells"] = N
+    return prof
+
+
+def column_2s(repeats):
+    """Wall time [s] of the default column (seed) over 2 s of simulated time: the first run
+    (includes compilation) and the median of the following runs."""
+    s = _setup(10, t_end=2.0)
+    walls = []
+    for k in range(repeats + 1):
         w = time.perf_counter()
-        ur, rr = ref.run_fixed(u0.copy(), r0.copy(), 0.0, dt, steps_r)
-        tr.append(time.perf_counter() - w)
-    # results unchanged: the same number of steps both ways
-    uc, rc = u0.copy(), r0.copy()
-    sim.advance(uc, rc, 0.0, steps_r * dt)
-    diff = max(np.max(np.abs(uc - ur)) / np.max(np.abs(ur)), np.max(np.abs(rc - rr)) / np.max(np.abs(rr)))
-    csups_c = n * stages * steps_c / statistics.median(tc)
-    csups_r = n * stages * steps_r / statistics.median(tr)
-    return {"cells": n, "kernel_radius_cells": sim.W, "stages": stages, "compiled_csups": csups_c,
-            "numpy_csups": csups_r, "speedup": csups_c / csups_r, "max_relative_difference": float(diff),
-            "compiled_times_s": tc, "numpy_times_s": tr, "steps_compiled": steps_c, "steps_numpy": steps_r}
+        run_bsr_column(s)
+        walls.append(time.perf_counter() - w)
+    return {"first_run_s": walls[0], "median_s": statistics.median(walls[1:]), "runs_s": walls}
+
+
+def dem_vs_bsr(sizes, repeats, t_end=2.0):
+    from bsrflow.physics.dem import DEMColumn, run_dem
+    rows = []
+    for n in sizes:
+        s = _setup(10, n_spheres=n, t_end=t_end, save_every=0.01)
+        col = DEMColumn(n_spheres=n, diameter=s.diameter, density=s.density, stiffness=s.stiffness,
+                        restitution=s.restitution, gravity=s.gravity)
+        run_dem(col, s.motion(), 0.01, sample_interval=0.01)     # compile
+        run_bsr_column(s.with_(t_end=0.01))
+        reps = repeats if n <= 200 else 1
+        dem_t, dem_all = _median_time(lambda: run_dem(col, s.motion(), t_end, sample_interval=0.01), reps)
+        bsr_t, bsr_all = _median_time(lambda: run_bsr_column(s), reps)
+        rows.append({"spheres": n, "dem_wall_s": dem_t, "bsr_wall_s": bsr_t, "ratio_dem_over_bsr": dem_t / bsr_t,
+                     "bsr_cells": s.grid().n_cells, "dem_dt_s": col.dt, "dem_runs_s": dem_all,
+                     "bsr_runs_s": bsr_all, "simulated_s": t_end})
+        print(f"  {n:5d} spheres: DEM {dem_t:8.2f} s   BSR {bsr_t:8.2f} s   DEM/BSR {dem_t / bsr_t:7.1f}",
+              flush=True)
+    return rows
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--json", default="bench/results.json")
     ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--quick", action="store_true", help="fewer steps and repeats, 20/200 spheres only")
     args = ap.parse_args(argv)
     numba.set_num_threads(1)
+    reps = 2 if args.quick else args.repeats
     out = {"machine": {"python": platform.python_version(), "numba": numba.__version__,
-                       "numpy": np.__version__, "cpu_count": os.cpu_count(),
-                       "loadavg": os.getloadavg() if hasattr(os, "getloadavg") else None},
-           "repeats": args.repeats, "numpy_reference": {}, "bsrflow": {}, "speedup": {}, "details": {}}
-    print(f"{'grid':6s} {'cells':>6s} {'W':>3s} {'NumPy csups':>12s} {'compiled csups':>15s} {'speed-up':>9s} {'max rel diff':>12s}")
-    for ppd, sc, sr in ((10, 400, 20), (40, 200, 4)):
+                       "numpy": np.__version__, "cpu_count": os.cpu_count(), "processor": platform.processor(),
+                       "loadavg_start": os.getloadavg() if hasattr(os, "getloadavg") else None},
+           "repeats": reps, "one_core": True, "numpy_reference": {}, "bsrflow": {}, "speedup": {},
+           "details": {}}
+    print(f"{'grid':6s} {'cells':>6s} {'W':>3s} {'NumPy csups':>12s} {'bsrflow csups':>14s} {'speed-up':>9s} "
+          f"{'vs direct':>9s} {'max rel diff':>12s}", flush=True)
+    for ppd, sc, sr in ((10, 200, 4), (40, 100, 2)):
+        if args.quick:
+            sc, sr = sc // 4, 1
         key = f"ppd{ppd}"
-        r = bench(ppd, args.repeats, sc, sr)
+        r = bench_grid(ppd, reps, sc, sr)
         out["numpy_reference"][key] = r["numpy_csups"]
-        out["bsrflow"][key] = r["compiled_csups"]
+        out["bsrflow"][key] = r["bsrflow_csups"]
         out["speedup"][key] = r["speedup"]
         out["details"][key] = r
         print(f"{key:6s} {r['cells']:6d} {r['kernel_radius_cells']:3d} {r['numpy_csups']:12.3e} "
-              f"{r['compiled_csups']:15.3e} {r['speedup']:9.1f} {r['max_relative_difference']:12.2e}")
+              f"{r['bsrflow_csups']:14.3e} {r['speedup']:9.1f} {r['speedup_over_direct_integral']:9.1f} "
+              f"{max(r['max_rel_diff_vs_numpy'], r['max_rel_diff_fast_vs_direct']):12.2e}", flush=True)
+    print("profile (ns per cell, 1.3-s state):", flush=True)
+    out["profile"] = {f"ppd{p}": profile(p, reps) for p in (10, 40)}
+    for key, prof in out["profile"].items():
+        print("  " + key + ": " + ", ".join(f"{k[:-12] if k.endswith('_ns_per_cell') else k} {v:.3g}"
+                                            for k, v in prof.items() if k.endswith("ns_per_cell")
+                                            or k.endswith("stage")), flush=True)
+    c2 = column_2s(2 if args.quick else 3)
+    out["column_2s_wall_s"] = c2["median_s"]
+    out["column_2s"] = c2
+    print(f"column over 2 s: {c2['median_s']:.2f} s (first run with compilation {c2['first_run_s']:.2f} s)",
+          flush=True)
+    print("DEM vs BSR over 2 s:", flush=True)
+    out["dem_vs_bsr"] = dem_vs_bsr((20, 200) if args.quick else (20, 200, 2000), reps)
+    out["machine"]["loadavg_end"] = os.getloadavg() if hasattr(os, "getloadavg") else None
     os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
     with open(args.json, "w") as fh:
         json.dump(out, fh, indent=2)

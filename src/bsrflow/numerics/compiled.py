@@ -132,12 +132,18 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
         frame = M(t, mp)[2]
         h = 0.5 / dx
         INTEGRAL(up, rp, G, N, W, qz, qw, kp, du)
+        # contiguous views (cells i-1, i, i+1) so that the loop has no index wrap-around
+        # checks and vectorises
+        uc = up[G:G + N]
+        ul = up[G - 1:G - 1 + N]
+        ur = up[G + 1:G + 1 + N]
+        rl = rp[G - 1:G - 1 + N]
+        rr = rp[G + 1:G + 1 + N]
         for i in range(N):
-            ii = G + i
-            ui = up[ii]
+            ui = uc[i]
             x = xlo + (i + 0.5) * dx
-            du[i] += -ui * (up[ii + 1] - up[ii - 1]) * h + E(t, x, ui, ep) - grav - frame
-            dr[i] = -(rp[ii + 1] * up[ii + 1] - rp[ii - 1] * up[ii - 1]) * h
+            du[i] += -ui * (ur[i] - ul[i]) * h + E(t, x, ui, ep) - grav - frame
+            dr[i] = -(rr[i] * ur[i] - rl[i] * ul[i]) * h
         if bcl == 1:
             # the mass flux through the floor uses the even image ρ_{-1} = ρ_0 (zero flux, exact
             # mass conservation); the point-reflected images serve the interaction integral only
@@ -172,10 +178,15 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
         """Near-neighbour average (1/4, 1/2, 1/4) of (5.7), n = 1, from padded arrays.
         At a floor the density uses the even image (mass-conserving)."""
         N = u.size
+        ul = up[G - 1:G - 1 + N]
+        uc = up[G:G + N]
+        ur = up[G + 1:G + 1 + N]
+        rl = rp[G - 1:G - 1 + N]
+        rc = rp[G:G + N]
+        rr = rp[G + 1:G + 1 + N]
         for i in range(N):
-            ii = G + i
-            u[i] = 0.25 * (up[ii - 1] + 2.0 * up[ii] + up[ii + 1])
-            rho[i] = 0.25 * (rp[ii - 1] + 2.0 * rp[ii] + rp[ii + 1])
+            u[i] = 0.25 * (ul[i] + 2.0 * uc[i] + ur[i])
+            rho[i] = 0.25 * (rl[i] + 2.0 * rc[i] + rr[i])
         if bcl == 1:
             rho[0] = 0.25 * (3.0 * rp[G] + rp[G + 1])
 
@@ -185,27 +196,26 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
         nearest cell with ρ >= thr (the lower one on a tie).  Velocity has no meaning where
         there is no material; without this, the vacuum above a column free-falls (u = -g t)
         and the central differences and the moving average drag that velocity into the
-        material."""
+        material.  One pass over the runs of vacuum cells, no allocation."""
         N = u.size
-        last = -1
-        dist_lo = np.full(N, N + 1)
-        src_lo = np.full(N, -1)
-        for i in range(N):
+        prev = -1                      # last material cell below the current run
+        i = 0
+        while i < N:
             if rho[i] >= thr:
-                last = i
-            elif last >= 0:
-                dist_lo[i] = i - last
-                src_lo[i] = last
-        nxt = -1
-        for i in range(N - 1, -1, -1):
-            if rho[i] >= thr:
-                nxt = i
-            elif nxt >= 0 and nxt - i < dist_lo[i]:
-                dist_lo[i] = nxt - i
-                src_lo[i] = nxt
-        for i in range(N):
-            if rho[i] < thr and src_lo[i] >= 0:
-                u[i] = u[src_lo[i]]
+                prev = i
+                i += 1
+                continue
+            j = i
+            while j < N and rho[j] < thr:
+                j += 1
+            # vacuum run i..j-1, material at prev (< i, or -1) and j (or N: none)
+            if prev >= 0 or j < N:
+                for m in range(i, j):
+                    if j >= N or (prev >= 0 and m - prev <= j - m):
+                        u[m] = u[prev]
+                    else:
+                        u[m] = u[j]
+            i = j
 
     @numba.njit(cache=False)
     def selective_average(u, rho, up, rp, G, bcl, tau, speed):
@@ -281,13 +291,19 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
     def advance(u, rho, t, t_end, dt_fixed, cfl, kappa, A, b, c, filt, bcl, bch, xlo, dx, W, qz, qw,
                 kp, grav, ep, mp, bp, dt_min, rho_max, max_steps, strain_limit, top_tol,
                 tracers, tracer_mode, vac_thr, hyper, positivity, sel_tau, bhat, rtol, atol_u, atol_r,
-                err_order, counters):
+                err_order, counters, skip_vacuum):
         """Advance (u, rho, tracers) in place from t to t_end.
 
         dt: ``dt_fixed`` if > 0, else cfl Δx / (max|u| + sqrt(κ max ρ)); the last step is
         shortened to land on t_end.  tracer_mode: 0 none, 1 forward Euler with the velocity
         at the start of the step (the seed's), 2 the field's Runge-Kutta tableau with the
         stage velocity fields.  Returns (t, steps, status, where_index, dt_last).
+
+        skip_vacuum: with a vacuum top, velocity extension (vac_thr > 0), no hyperdiffusion and
+        fixed or CFL steps, the stages update only the cells below hi = z + 2s + 2 (z: one past
+        the highest cell with ρ != 0 or tracer, s stages).  Above, ρ stays exactly 0 during the
+        step; the stage velocities there would only reach cells with ρ = 0, which the velocity
+        extension overwrites after the step.  The result is the same, bit for bit (tested).
         """
         N = u.size
         G = max(W, 2)
@@ -307,7 +323,20 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
         dt = 0.0
         adaptive = rtol > 0.0
         dt_prop = 1e300
+        can_skip = skip_vacuum and vac_thr > 0.0 and bch == 2 and hyper == 0.0 and not adaptive
+        hi = N
         while t < t_end:
+            if can_skip:
+                z = 0
+                for i in range(N - 1, -1, -1):
+                    if rho[i] != 0.0:
+                        z = i + 1
+                        break
+                for n in range(nt):
+                    q = int((tracers[n] - xlo) / dx) + 2
+                    if q > z:
+                        z = q
+                hi = min(N, z + 2 * s + 2)
             if dt_fixed > 0.0:
                 dt = dt_fixed
             else:
@@ -343,7 +372,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
                 for j in range(st):
                     a = A[st, j]
                     if a != 0.0:
-                        for i in range(N):
+                        for i in range(hi):
                             yu[i] += dt * a * ku[j, i]
                             yr[i] += dt * a * kr[j, i]
                 ts = t + c[st] * dt
@@ -355,7 +384,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
                             for j in range(st):
                                 xt[n] += dt * A[st, j] * vt[j, n]
                         vt[st, n] = interp(up, G, N, xlo, dx, xt[n])
-                rhs(ts, up, rp, G, N, xlo, dx, W, qz, qw, kp, grav, ep, mp, ku[st], kr[st], bcl, hyper, kappa)
+                rhs(ts, up, rp, G, hi, xlo, dx, W, qz, qw, kp, grav, ep, mp, ku[st], kr[st], bcl, hyper, kappa)
             if adaptive:
                 # embedded error estimate  Δt Σ (b_j - b̂_j) k_j, scaled by atol + rtol |y|
                 err = 0.0
@@ -396,7 +425,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
             for j in range(s):
                 bj = b[j]
                 if bj != 0.0:
-                    for i in range(N):
+                    for i in range(hi):
                         u[i] += dt * bj * ku[j, i]
                         rho[i] += dt * bj * kr[j, i]
             if tracer_mode == 1:

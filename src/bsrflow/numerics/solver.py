@@ -185,13 +185,20 @@ class Simulation:
     vacuum_density : cells with ρ below this [kg/m] are vacuum: after every step their velocity
         is replaced by that of the nearest material cell (0: off).  See
         ``compiled.extend_velocity``.
-    integral_fn : compiled whole-array interaction integral (default: the direct quadrature
-        sum of the kernel, :func:`bsrflow.numerics.compiled.make_direct_integral`).
+    integral : 'fast' (default: the kernel's ``fast_integral`` when it has one, e.g. the
+        Walton–Braun algorithm of :mod:`bsrflow.numerics.fast_integral`, which equals the direct
+        sum to round-off) or 'direct' (the quadrature sum of (2W+1) kernel calls per cell,
+        :func:`bsrflow.numerics.compiled.make_direct_integral`).
+    integral_fn : a compiled whole-array interaction integral to use instead (overrides
+        ``integral``).
+    skip_vacuum : do not update the empty cells above a column during the stages (needs a
+        vacuum top and ``vacuum_density`` > 0; see ``compiled.make_core``'s ``advance``); the
+        result is bit-for-bit the same.
     """
 
     def __init__(self, model: BSRModel, grid: Grid1D, scheme: Scheme | None = None, *, rho_max=0.0,
                  dt_min=1e-12, strain_limit=0.0, top_tolerance=0.0, max_steps=50_000_000,
-                 vacuum_density=0.0, integral_fn=None):
+                 vacuum_density=0.0, integral="fast", integral_fn=None, skip_vacuum=True):
         self.model = model
         self.grid = grid
         self.scheme = scheme or Scheme.preset("seed")
@@ -221,7 +228,14 @@ class Simulation:
         if not (np.isfinite(vacuum_density) and vacuum_density >= 0):
             raise ValueError(f"vacuum_density = {vacuum_density!r} is outside the valid range [0, inf) kg/m")
         self.vacuum_density = float(vacuum_density)
-        integral = integral_fn if integral_fn is not None else direct_integral(model.kernel.compiled)
+        self.skip_vacuum = bool(skip_vacuum)
+        if integral not in ("fast", "direct"):
+            raise ValueError(f"integral = {integral!r} is not one of ('fast', 'direct')")
+        if integral_fn is None:
+            fast = getattr(model.kernel, "fast_integral", None)
+            integral_fn = fast if (integral == "fast" and fast is not None) else direct_integral(model.kernel.compiled)
+        self.integral_name = getattr(integral_fn, "__name__", "custom")
+        integral = integral_fn
         self.core = make_core(integral, jit_user(model.external), model.motion.fn,
                               jit_user(model.boundary_values))
 
@@ -243,7 +257,7 @@ class Simulation:
             int(max_steps or self.max_steps), self.strain_limit, self.top_tolerance, tr, mode,
             self.vacuum_density, float(s.hyperdiffusion), bool(s.positivity), float(s.selective_filter),
             self._bhat, float(s.rtol or 0.0), float(s.atol[0]), float(s.atol[1]), float(self._err_order),
-            self.counters)
+            self.counters, self.skip_vacuum)
 
     def rhs(self, u, rho, t):
         """Semi-discrete right-hand side (du/dt, dρ/dt) at time t."""
@@ -264,7 +278,8 @@ class Simulation:
 
     # -- a whole run --------------------------------------------------------------------------
     def run(self, u0, rho0, t_end, *, t_start=0.0, save_every=None, save_times=None, tracers=None,
-            observers=(), progress=None) -> SimulationResult:
+            observers=(), progress=None, extra_event_times=(), on_event=None,
+            restart=False) -> SimulationResult:
         """Integrate from t_start to t_end [s], saving snapshots.
 
         u0 [m/s], rho0 [kg/m]: initial fields on the grid (floor frame).
@@ -273,6 +288,18 @@ class Simulation:
         observers: callables ``obs(t, u, rho, tracers)`` called at every save (e.g. a writer),
             so output written before a failure is kept.
         progress: callable ``progress(t)`` called at every save.
+        extra_event_times: further times [s]; those in (t_start, t_end) become events of the
+            run: the time loop lands on them exactly (a step ends there) and calls
+            ``on_event(t, u, rho, tracers, steps)`` (``steps``: steps taken so far in this
+            call) *before* the velocity jump and the save at that time, if any.  State
+            handed to ``on_event`` at t, restarted with ``run(..., t_start=t, restart=True)``
+            with the remaining save times and event times, gives the same step sequence and
+            bit-for-bit the same snapshots: the restarted run applies the jump at t itself
+            (``jumps_between`` includes its start) and no step carries information across an
+            event (every ``advance`` starts afresh).  Used for checkpoints.
+        restart: the initial state is a state saved by an earlier run (a checkpoint): skip
+            the check that rho0 >= 0 (schemes without the positivity fix leave round-off
+            level negative densities, e.g. -1e-15 kg/m).
         Raises :class:`SimulationError` (with ``.result``) if a monitor stops the run.
         """
         g = self.grid
@@ -283,14 +310,15 @@ class Simulation:
                 raise ValueError(f"{name} has shape {arr.shape}; expected ({g.n_cells},) to match the grid")
             if not np.all(np.isfinite(arr)):
                 raise ValueError(f"{name} contains non-finite values")
-        if np.any(rho < 0):
+        if not restart and np.any(rho < 0):
             raise ValueError(f"rho0 has negative values (min {rho.min():.3g} kg/m); density must be >= 0")
         if not (np.isfinite(t_end) and t_end > t_start):
             raise ValueError(f"t_end = {t_end!r} must be finite and greater than t_start = {t_start!r}")
         tr = np.zeros(0) if tracers is None else np.array(tracers, dtype=float, copy=True).reshape(-1)
         save_times = save_schedule(t_start, t_end, save_every, save_times)
         jumps = self.model.motion.jumps_between(t_start, t_end)
-        events = sorted(set(save_times.tolist()) | {tj for tj, _ in jumps})
+        extra = {float(te) for te in extra_event_times if t_start < te < t_end}
+        events = sorted(set(save_times.tolist()) | {tj for tj, _ in jumps} | extra)
 
         ts, us, rs, trs, fl = [], [], [], [], []
         motion = self.model.motion
@@ -335,6 +363,8 @@ class Simulation:
                            f"{(ts[-1] if ts else t_start):.6g} s were kept")
                     raise SimulationError(msg, result(STATUS[status]), t_new, x_where, status)
                 t = ev
+            if ev in extra and on_event is not None:
+                on_event(ev, u, rho, tr, total_steps)
             if ev in jump_at:
                 # the floor velocity jumps by dv: the velocity relative to the floor by -dv (3.15)
                 u -= jump_at[ev]

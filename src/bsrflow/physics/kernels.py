@@ -58,6 +58,10 @@ class Kernel:
     radius : R [m], the interaction range (the seed's 2r, one particle diameter).
     name : label.
     param_names, param_units : documentation of p, copied into output attributes.
+    fast_integral : optional compiled whole-array integral with the signature of
+        :func:`bsrflow.numerics.compiled.make_direct_integral`'s result that computes the same
+        sum with less work (e.g. :mod:`bsrflow.numerics.fast_integral` for Walton–Braun); the
+        solver uses it unless asked for the direct sum.
     """
 
     fn: object
@@ -67,6 +71,7 @@ class Kernel:
     param_names: tuple = ()
     param_units: tuple = ()
     compiled: object = field(default=None, repr=False)
+    fast_integral: object = field(default=None, repr=False)
 
     def __post_init__(self):
         self.params = np.ascontiguousarray(np.atleast_1d(np.asarray(self.params, dtype=np.float64)))
@@ -154,10 +159,12 @@ def walton_braun(strength: float, dissipation: float, radius: float, seed_sign: 
             raise ValueError(f"{name} = {v!r} is outside the valid range (0, inf)")
     if not (0.0 <= dissipation < 1.0):
         raise ValueError(f"dissipation = {dissipation!r} is outside the valid range [0, 1)")
+    from ..numerics.fast_integral import walton_braun_integral
+
     return Kernel(_walton_braun, [strength, dissipation, radius, 1.0 if seed_sign else -1.0], radius,
                   name="walton_braun" + ("_seed_sign" if seed_sign else ""),
                   param_names=("strength", "dissipation", "radius", "orientation"),
-                  param_units=("kg-1 s-2", "1", "m", "1"))
+                  param_units=("kg-1 s-2", "1", "m", "1"), fast_integral=walton_braun_integral)
 
 
 def walton_braun_from_contact(stiffness: float, particle_mass: float, m0: float, dissipation: float,
