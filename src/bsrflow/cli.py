@@ -20,6 +20,10 @@ COMMAND_MODULES = [
     "bsrflow.analysis.compare",
     "bsrflow.analysis.energy",
     "bsrflow.analysis.stability",
+    "bsrflow.analysis.compare_dump",
+    "bsrflow.tools.plot_file",
+    "bsrflow.tools.sweep",
+    "bsrflow.io.commands",
 ]
 
 

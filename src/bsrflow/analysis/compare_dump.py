@@ -1,0 +1,237 @@
+"""BSR continuum against an external DEM (LAMMPS / LIGGGHTS dump) for the tapped column.
+
+``bsrflow compare-dump DUMP --dt SECONDS [--config CONFIG.toml] ...`` reads the dump
+(:func:`bsrflow.io.lammps.read_dump`), runs the BSR column of the configuration to the dump's
+last time and reports the metrics and figures that ``bsrflow compare`` reports for the package's
+own DEM (:mod:`bsrflow.analysis.compare`):
+
+* ``top_max_over_d``, ``t_top_max``: maximum of the top height over t >= tap_start (the first
+  tap) and its time [s], from ``compare._metrics``; the DEM top is the highest sphere centre
+  (for a 1-D column the top sphere, as ``DEMResult.top``);
+* ``mass_centre_rms_over_d``: RMS over the dump's snapshot times of the difference of the
+  mass-centre heights (BSR interpolated linearly to those times), in units of d;
+* ``top_max_rel_diff``, ``t_top_max_rel_diff``: BSR over DEM minus 1.
+
+Heights are measured from the floor at rest: a dump coordinate c becomes c - ``floor`` (the
+floor's rest position in the dump's frame, ``--floor-offset``), and the dump's time t becomes
+t - ``time_offset``.  Only snapshots inside the BSR run's time range are used.  The mass-centre
+RMS and relative differences are computed exactly as ``compare.compare`` does inline (that code
+is not a function there, so :func:`case_metrics` restates it).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import types
+
+import numpy as np
+
+from .compare import _metrics
+
+__all__ = ["case_metrics", "compare_with_dump", "dump_floor", "add_parser"]
+
+
+def case_metrics(run, t_dem, top_dem, centre_dem, diameter=None) -> dict:
+    """The comparison metrics of ``bsrflow compare`` for one case.
+
+    run : :class:`bsrflow.physics.column.ColumnRun` (lab-frame heights from the floor at rest).
+    t_dem, top_dem, centre_dem : (nt,) DEM sample times [s], top-sphere-centre and mass-centre
+        heights [m] from the floor at rest.
+    diameter : d [m] for the heights in units of d (default ``run.setup.diameter``).
+
+    Returns {"bsr": {top_max_over_d, t_top_max}, "dem": {...}, "mass_centre_rms_over_d",
+    "top_max_rel_diff", "t_top_max_rel_diff"}.
+    """
+    s = run.setup
+    d = float(diameter or s.diameter)
+    ref = types.SimpleNamespace(diameter=d, tap_start=s.tap_start)      # what _metrics reads
+    bsr = _metrics(run.t, run.top, run.mass_centre, ref)
+    dem = _metrics(np.asarray(t_dem), np.asarray(top_dem), np.asarray(centre_dem), ref)
+    rms = float(np.sqrt(np.mean(((np.interp(t_dem, run.t, run.mass_centre) - centre_dem) / d) ** 2)))
+    return {"bsr": bsr, "dem": dem, "mass_centre_rms_over_d": rms,
+            "top_max_rel_diff": bsr["top_max_over_d"] / dem["top_max_over_d"] - 1.0,
+            "t_top_max_rel_diff": bsr["t_top_max"] / dem["t_top_max"] - 1.0}
+
+
+def dump_floor(setup, t) -> np.ndarray:
+    """Floor position ϑ(t) [m] of the setup's applied motion at times ``t`` [s]."""
+    motion = setup.motion()
+    return np.array([float(motion.fn(float(tt), motion.params)[0]) for tt in np.asarray(t)])
+
+
+def compare_with_dump(run, dump, floor: float = 0.0, diameter: float | None = None, axis=None,
+                      time_offset: float = 0.0, figures: str | None = None, name: str | None = None) -> dict:
+    """Compare a BSR column run with the sphere trajectories of a LAMMPS/LIGGGHTS dump.
+
+    Parameters
+    ----------
+    run : :class:`~bsrflow.physics.column.ColumnRun` of the same column and taps.
+    dump : :class:`~bsrflow.io.lammps.DumpTrajectories` with times (``dump.t`` not None: read it
+        with ``timestep_size``).
+    floor : rest position [m] of the floor along ``axis`` in the dump's coordinates; heights are
+        coordinate - floor.
+    diameter : d [m] for heights in units of d (default ``run.setup.diameter``).
+    axis : vertical axis of the dump (default ``dump.axis``).
+    time_offset : subtracted from the dump's times [s] (e.g. a settling phase run before t = 0 of
+        the BSR run).
+    figures : directory for the figures of ``bsrflow compare`` (density snapshots, trajectories
+        side by side, top and mass centre), written by :func:`bsrflow.plots.compare_figures`.
+    name : case name used in the figure file names (default: the dump file's stem).
+
+    Returns
+    -------
+    JSON-ready dict: the metrics of :func:`case_metrics`, ``dump`` (file, atoms, snapshots used,
+    offsets), ``bsr_run`` (wall time, steps, mass drift, min density), ``setup``, ``warnings``
+    (atom count or sphere diameter differing from the setup's) and ``figures``.
+    """
+    if dump.t is None:
+        raise ValueError(f"{dump.path}: the dump's times are unknown: give the time step size (--dt)")
+    s = run.setup
+    d = float(diameter or s.diameter)
+    if not (math.isfinite(d) and d > 0):
+        raise ValueError(f"diameter = {diameter!r} is outside the valid range (0, inf) m")
+    name = name or os.path.basename(dump.path).split(".")[0] or "dump"
+    t_all = np.asarray(dump.t, dtype=float) - float(time_offset)
+    tol = 1e-9 * max(1.0, abs(run.t[-1]))
+    use = (t_all >= run.t[0] - tol) & (t_all <= run.t[-1] + tol)
+    if use.sum() < 1:
+        raise ValueError(f"{dump.path}: no snapshot lies in the BSR run's time range [{run.t[0]:g}, {run.t[-1]:g}] s "
+                         f"(dump times {t_all[0]:g} to {t_all[-1]:g} s after the time offset {time_offset:g} s)")
+    t_d = t_all[use]
+    heights = dump.heights(axis)[use] - float(floor)
+    top = heights.max(axis=1)
+    centre = dump.mass_centre(axis)[use] - float(floor)
+    out = {"name": name, "a_over_d": s.a_over_d, "taps": s.n_taps, "d": d}
+    out.update(case_metrics(run, t_d, top, centre, d))
+    warnings = []
+    if dump.n_atoms != s.n_spheres:
+        warnings.append(f"the dump has {dump.n_atoms} atoms, the setup {s.n_spheres} spheres")
+    diam = dump.diameters()
+    if diam is not None and np.isfinite(diam).any():
+        dd = float(np.nanmedian(diam))
+        if abs(dd / s.diameter - 1.0) > 1e-3:
+            warnings.append(f"the dump's spheres have diameter {dd:.6g} m, the setup {s.diameter:.6g} m")
+    if use.sum() < t_all.size:
+        warnings.append(f"{t_all.size - int(use.sum())} snapshot(s) outside the BSR run's time range were left out")
+    out["dump"] = {"path": dump.path, "atoms": dump.n_atoms, "snapshots": dump.n_snapshots,
+                   "snapshots_used": int(use.sum()), "timestep_first": int(dump.timestep[0]),
+                   "timestep_last": int(dump.timestep[-1]), "axis": dump.axis if axis is None else str(axis),
+                   "floor_offset_m": float(floor), "time_offset_s": float(time_offset),
+                   "t_first_s": float(t_d[0]), "t_last_s": float(t_d[-1]), "units": dump.units}
+    out["bsr_run"] = {"wall_s": run.wall_time, "steps": run.steps,
+                      "mass_drift": float(np.max(np.abs(run.mass - run.mass[0])) / run.mass[0]),
+                      "min_density": float(run.rho.min())}
+    out["setup"] = s.to_dict()
+    out["warnings"] = warnings
+    if figures:
+        from .. import plots
+        plots.compare_figures({name: (s, run, (t_d, heights, dump_floor(s, t_d)))}, figures)
+        kinds = (["density"] if s.n_taps == 1 else []) + ["trajectories", "top_centre"]
+        out["figures"] = [f"{name}_{k}.png" for k in kinds]
+    return out
+
+
+def format_line(result) -> str:
+    """One-line summary in the layout of ``bsrflow compare``'s table."""
+    b, m = result["bsr"], result["dem"]
+    return (f"{result['name']}: BSR top {b['top_max_over_d']:.2f} d at {b['t_top_max']:.3f} s | "
+            f"dump top {m['top_max_over_d']:.2f} d at {m['t_top_max']:.3f} s | "
+            f"dtop {100 * result['top_max_rel_diff']:.1f}% | dt {100 * result['t_top_max_rel_diff']:.1f}% | "
+            f"mass-centre RMS {result['mass_centre_rms_over_d']:.3f} d")
+
+
+# ----------------------------------------------------------------------------- command line
+
+_SETUP_OPTIONS = [
+    # (option, ColumnSetup field, type, help)
+    ("--n-spheres", "n_spheres", int, "number of spheres N"),
+    ("--diameter", "diameter", float, "sphere diameter d [m] (also the unit of the heights)"),
+    ("--density", "density", float, "sphere material density [kg/m^3]"),
+    ("--stiffness", "stiffness", float, "contact stiffness K [N/m]"),
+    ("--a-over-d", "a_over_d", float, "tap amplitude a/d"),
+    ("--frequency", "frequency", float, "tap frequency f [Hz]"),
+    ("--tap-start", "tap_start", float, "time of the first tap [s]"),
+    ("--n-taps", "n_taps", int, "number of taps"),
+    ("--tap-period", "tap_period", float, "time between taps [s]"),
+    ("--m0", "m0", float, "kernel characteristic mass m0 [kg]"),
+    ("--eps", "kernel_dissipation", float, "kernel dissipation epsilon"),
+    ("--ppd", "points_per_diameter", int, "grid points per diameter"),
+    ("--scheme", "scheme", str, "scheme preset (seed or accurate)"),
+    ("--t-end", "t_end", float, "end of the BSR run [s] (default: the dump's last time)"),
+]
+
+
+def add_parser(sub):
+    helptext = "BSR against a LAMMPS/LIGGGHTS dump of the tapped column (metrics and figures of 'compare')"
+    p = sub.add_parser("compare-dump", help=helptext, description=helptext)
+    p.add_argument("dump", metavar="DUMP", help="LAMMPS/LIGGGHTS text dump (dump atom/custom; .gz allowed)")
+    p.add_argument("--config", metavar="CONFIG.toml",
+                   help="column configuration (TOML); options below override it")
+    p.add_argument("--dt", type=float, metavar="SECONDS",
+                   help="the DEM run's time step [s]: t = timestep * dt (needed unless the dump has ITEM: TIME)")
+    p.add_argument("--axis", default="z", choices=("x", "y", "z"), help="vertical axis of the dump (default z)")
+    p.add_argument("--floor-offset", type=float, default=0.0, metavar="M",
+                   help="rest position of the floor in the dump's coordinates [m] (default 0)")
+    p.add_argument("--time-offset", type=float, default=0.0, metavar="S",
+                   help="subtracted from the dump's times [s] (default 0)")
+    p.add_argument("--type", type=int, action="append", dest="types", metavar="T",
+                   help="use only atoms of this type (repeatable; default all)")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="override any column parameter (repeatable), e.g. --set restitution=0.8")
+    for opt, _field, typ, h in _SETUP_OPTIONS:
+        p.add_argument(opt, type=typ, default=None, dest=_field, metavar="N" if typ is int else "VALUE", help=h)
+    p.add_argument("--json", metavar="PATH", help="write the results as JSON")
+    p.add_argument("--figures", metavar="DIR", help="write the figures to DIR")
+    p.set_defaults(func=_main)
+
+
+def _main(args) -> int:
+    from ..io.lammps import read_dump
+    from ..physics.column import run_bsr_column
+    from ..tools.setup_source import SetupSource, parse_value
+
+    if args.dt is not None and not (math.isfinite(args.dt) and args.dt > 0):
+        raise ValueError(f"--dt {args.dt!r} is outside the valid range (0, inf) s")
+    dump = read_dump(args.dump, timestep_size=args.dt, axis=args.axis)
+    if dump.t is None:
+        raise ValueError(f"{args.dump}: the dump has no ITEM: TIME blocks; give the time step with --dt SECONDS")
+    if args.types:
+        dump = dump.select(args.types)
+    overrides = {}
+    for item in args.set:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip() or not value.strip():
+            raise ValueError(f"--set {item!r} is not NAME=VALUE")
+        overrides[key.strip()] = parse_value(value)
+    for opt, fld, _typ, _h in _SETUP_OPTIONS:
+        v = getattr(args, fld)
+        if v is not None:
+            overrides[fld] = v
+    if "t_end" not in overrides:
+        overrides["t_end"] = float(dump.t[-1] - args.time_offset)
+    source = SetupSource.load(args.config)
+    source.check_names(overrides)
+    setup, scheme = source.setup_and_scheme(overrides)
+    print(f"bsrflow compare-dump: {args.dump}: {dump.n_atoms} atoms, {dump.n_snapshots} snapshots, "
+          f"t = {dump.t[0]:g} to {dump.t[-1]:g} s; BSR to t = {setup.t_end:g} s, scheme "
+          f"{setup.scheme if scheme is None else scheme.name}"
+          + ("" if args.config is None else
+             f" (config {args.config}{'' if source.uses_config_module else ', fallback reader'})"))
+    run = run_bsr_column(setup, scheme=scheme)
+    result = compare_with_dump(run, dump, floor=args.floor_offset, axis=args.axis, time_offset=args.time_offset,
+                               figures=args.figures)
+    result["config"] = args.config
+    print(format_line(result))
+    for w in result["warnings"]:
+        print(f"warning: {w}")
+    if args.json:
+        os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
+        with open(args.json, "w") as fh:
+            json.dump(result, fh, indent=2)
+        print(f"wrote {args.json}")
+    if args.figures:
+        for f in result.get("figures", []):
+            print(os.path.join(args.figures, f))
+    return 0

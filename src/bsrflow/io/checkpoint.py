@@ -1,0 +1,86 @@
+"""Checkpoints of a run: the state at an event time, enough to continue bit for bit.
+
+A checkpoint is an ``.npz`` file ``<out>.ckpt`` (``checkpoint_path``) written to a temporary file,
+flushed to disk and renamed over the previous one (``os.replace``), so a kill leaves either the
+old or the new checkpoint, never a partial one.  It holds the state *before* the velocity jump
+and the save at its time t (``Simulation.run``'s ``on_event``), which the resumed run then applies
+itself; see :mod:`bsrflow.io.runner`.
+"""
+
+from __future__ import annotations
+
+import os
+import zipfile
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import __version__
+
+__all__ = ["Checkpoint", "checkpoint_path", "write_checkpoint", "read_checkpoint"]
+
+_FORMAT = 1
+
+
+@dataclass
+class Checkpoint:
+    """State of a run at time ``t``.
+
+    t : time [s] (an event of the run: a checkpoint time).
+    u : velocity relative to the floor [m/s] on the grid; rho : line density [kg/m];
+    tracers : tracer positions [m] (floor frame); all before the jump/save at t.
+    steps : time steps taken from t = 0 to t; rejected_steps : rejected adaptive steps;
+    wall_time : wall-clock time [s] spent up to t (all segments); n_snapshots : snapshots saved
+    before t; config : the run's TOML text; version : bsrflow version that wrote it.
+    """
+
+    t: float
+    u: np.ndarray
+    rho: np.ndarray
+    tracers: np.ndarray
+    steps: int
+    rejected_steps: int
+    wall_time: float
+    n_snapshots: int
+    config: str
+    version: str = __version__
+
+
+def checkpoint_path(out) -> str:
+    """The checkpoint file of output ``out``: ``<out>.ckpt``."""
+    return os.fspath(out) + ".ckpt"
+
+
+def write_checkpoint(path, ck: Checkpoint) -> None:
+    """Write ``ck`` atomically to ``path`` (temporary file, fsync, ``os.replace``)."""
+    path = os.fspath(path)
+    tmp = f"{path}.tmp{os.getpid()}"
+    try:
+        with open(tmp, "wb") as fh:
+            np.savez(fh, format=np.int64(_FORMAT), t=np.float64(ck.t), u=np.asarray(ck.u, float),
+                     rho=np.asarray(ck.rho, float), tracers=np.asarray(ck.tracers, float),
+                     steps=np.int64(ck.steps), rejected_steps=np.int64(ck.rejected_steps),
+                     wall_time=np.float64(ck.wall_time), n_snapshots=np.int64(ck.n_snapshots),
+                     config=np.str_(ck.config), version=np.str_(ck.version))
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+
+
+def read_checkpoint(path) -> Checkpoint:
+    """Read a checkpoint written by :func:`write_checkpoint`.  ValueError if it is not one."""
+    path = os.fspath(path)
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            if int(z["format"]) != _FORMAT:
+                raise ValueError(f"{path}: checkpoint format {int(z['format'])}, expected {_FORMAT}")
+            return Checkpoint(t=float(z["t"]), u=z["u"].copy(), rho=z["rho"].copy(),
+                              tracers=z["tracers"].copy(), steps=int(z["steps"]),
+                              rejected_steps=int(z["rejected_steps"]), wall_time=float(z["wall_time"]),
+                              n_snapshots=int(z["n_snapshots"]), config=str(z["config"]),
+                              version=str(z["version"]))
+    except (OSError, KeyError, EOFError, zipfile.BadZipFile) as exc:
+        raise ValueError(f"{path}: not a readable bsrflow checkpoint ({type(exc).__name__}: {exc})") from None

@@ -1,0 +1,707 @@
+"""TOML configuration of a tapped-column run (``bsrflow init`` writes one, ``bsrflow run`` reads it).
+
+A configuration has four tables, every key optional (defaults below, SI units)::
+
+    [column]    n_spheres, diameter [m], density [kg/m3], stiffness [N/m], restitution,
+                m0 [kg], kernel_dissipation, gravity [m/s2]
+    [tap]       a_over_d, frequency [Hz], start [s], n_taps, period [s], impulses
+    [run]       t_end [s], save_every [s], checkpoint_every [s] (0: no checkpoints)
+    [numerics]  scheme ("seed" | "accurate"), points_per_diameter, and the optional
+                overrides cfl, stepper, rtol, atol [m/s, kg/m], domain_height [m]
+
+The defaults are those of :class:`bsrflow.physics.column.ColumnSetup` except the continuum
+constants m0 = 406 kg and kernel_dissipation = 0.9, the calibration that ``make demo``
+(``bsrflow demo``) measures on the single tap a/d = 0.75 (the seed's printed m0 = 22 kg makes the
+resting column expand, see README).
+
+Every field is validated before a run: :func:`load_config` / :meth:`Config.from_dict` raise
+:class:`ConfigError` (a ``ValueError``) whose message is one line starting with the dotted field
+name, e.g. ``tap.a_over_d: -1.0 is outside the valid range [0, 20]``.
+
+API::
+
+    cfg = load_config("column.toml")               # validated, defaults filled
+    cfg = cfg.with_overrides({"a_over_d": 0.5, "numerics.scheme": "accurate"})
+    cfg.tap.a_over_d, cfg["tap.a_over_d"]           # 0.5
+    setup, scheme = cfg.column_setup(), cfg.scheme()
+    text = cfg.to_toml()                            # commented TOML that loads back to cfg
+    default_config_text()                           # what `bsrflow init` writes
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import os
+import re
+import tomllib
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+__all__ = ["Config", "ConfigError", "load_config", "default_config_text", "parse_override",
+           "CFL_LIMITS", "FIELDS"]
+
+
+class ConfigError(ValueError):
+    """An invalid configuration.  ``str(err)`` is one line ``<field>: <problem>``; ``field`` is
+    the dotted name (``tap.a_over_d``) or, for file-level problems, the file path."""
+
+    def __init__(self, field: str, problem: str, value: Any = None, valid: str | None = None):
+        self.field = field
+        self.value = value
+        self.valid = valid
+        one_line = " ".join(str(problem).split())
+        super().__init__(f"{field}: {one_line}")
+
+
+# -- stability limits ------------------------------------------------------------------------
+CFL_LIMITS: dict[tuple[str, bool], float] = {
+    ("euler", True): 0.7071,
+    ("heun", True): 1.5289,
+    ("kutta3", True): 2.3388,
+    ("kutta3", False): 1.7321,
+    ("rk4", True): 3.1010,
+    ("rk4", False): 2.8284,
+    ("euler", False): 0.0,
+    ("heun", False): 0.0,
+}
+"""Largest stable Courant number ν = max(|u|+c) Δt/Δx of the scheme as implemented (central
+differences in every Runge-Kutta stage; ``bsrflow stability``, README "Stability"), keyed by
+(stepper, moving average after every step).  0: unstable at every ν.  ``bs32`` has the stability
+polynomial of every 3-stage 3rd-order method, so its limits are those of ``kutta3``."""
+
+_STEPPER_ALIASES = {"rk3": "kutta3", "bs32": "kutta3"}   # for the stability limit only
+_STEPPERS = ("euler", "heun", "kutta3", "rk3", "rk4", "bs32")
+_EMBEDDED = ("heun", "kutta3", "rk3", "bs32")
+_SCHEMES = ("seed", "accurate")
+_MAX_SNAPSHOTS = 1_000_000
+_MAX_CHECKPOINTS = 100_000
+_MAX_CELLS = 2_000_000
+_MAX_HEIGHT = 1e4     # [m], the largest domain
+
+
+# -- the fields ------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class _Field:
+    table: str
+    key: str
+    kind: str                      # "int", "float", "bool", "str"
+    default: Any                   # None: optional, absent by default
+    doc: str
+    unit: str = ""
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False
+    hi_open: bool = False
+    choices: tuple = ()
+
+    @property
+    def name(self) -> str:
+        return f"{self.table}.{self.key}"
+
+    def range_text(self, hi: float | None = None) -> str:
+        if self.kind == "bool":
+            return "true or false"
+        if self.kind == "str":
+            return "one of " + ", ".join(f'"{c}"' for c in self.choices)
+        hi = self.hi if hi is None else hi
+        lo_b = "(" if self.lo_open else "["
+        hi_b = ")" if self.hi_open else "]"
+        txt = f"{lo_b}{_num(self.lo)}, {_num(hi)}{')' if hi is None else hi_b}"
+        if self.kind == "int":
+            txt += " (integers)"
+        return txt + (f" {self.unit}" if self.unit else "")
+
+    def in_range(self, v: float, hi: float | None = None) -> bool:
+        hi = self.hi if hi is None else hi
+        if not math.isfinite(v):
+            return False
+        if self.lo is not None and (v <= self.lo if self.lo_open else v < self.lo):
+            return False
+        if hi is not None and (v >= hi if self.hi_open else v > hi):
+            return False
+        return True
+
+
+def _num(v) -> str:
+    if v is None:
+        return "inf"
+    return f"{v:g}"
+
+
+_CAL = ("406 kg: the calibration that `make demo` measures on the single tap a/d = 0.75 "
+        "(seed scheme; the seed prints 22 kg, with which the resting column expands)")
+
+FIELDS: tuple[_Field, ...] = (
+    # [column] -- the spheres and the continuum constants
+    _Field("column", "n_spheres", "int", 20, "number of spheres stacked on the floor", "", 1, 100000),
+    _Field("column", "diameter", "float", 0.022,
+           "sphere diameter d (2.2 cm reproduces the seed's DEM heights; the seed never states d)",
+           "m", 0, 10, lo_open=True),
+    _Field("column", "density", "float", 1200.0, "density of the sphere material", "kg/m3", 0, 1e5,
+           lo_open=True),
+    _Field("column", "stiffness", "float", 1.366e7, "contact stiffness K (DEM loading; the kernel's K)",
+           "N/m", 0, 1e12, lo_open=True),
+    _Field("column", "restitution", "float", 0.9, "coefficient of restitution e of the DEM contacts",
+           "", 0, 1, lo_open=True),
+    _Field("column", "m0", "float", 406.0,
+           "continuum characteristic mass m0 of the kernel, lambda = K/(m m0); default " + _CAL,
+           "kg", 0, 1e12, lo_open=True),
+    _Field("column", "kernel_dissipation", "float", 0.9,
+           "dissipation epsilon of the continuum kernel (not the restitution: e^2 = (1-eps)/(1+eps)); "
+           "default 0.9, calibrated together with m0 by `make demo` on a/d = 0.75", "", 0, 1,
+           hi_open=True),
+    _Field("column", "gravity", "float", 9.81, "gravitational acceleration g", "m/s2", 0, 1e4,
+           lo_open=True),
+    # [tap] -- half-sine displacement pulses of the floor
+    _Field("tap", "a_over_d", "float", 0.75, "tap amplitude a in units of the sphere diameter "
+           "(0: no tap)", "", 0, 20),
+    _Field("tap", "frequency", "float", 10.0, "tap frequency f; one tap lasts 1/(2f)", "Hz", 0, 1e4,
+           lo_open=True),
+    _Field("tap", "start", "float", 0.4, "time of the first tap (the column settles before it)", "s",
+           0, 1e5),
+    _Field("tap", "n_taps", "int", 1, "number of taps (0: no tap)", "", 0, 1_000_000),
+    _Field("tap", "period", "float", 0.6, "time between tap starts; at least the tap duration "
+           "1/(2f) when n_taps > 1", "s", 0, 1e5, lo_open=True),
+    _Field("tap", "impulses", "bool", True, "apply the velocity jumps of the displacement pulse "
+           "(true, correct) or only its smooth part a w^2 sin wt as printed in the seed (false)"),
+    # [run]
+    _Field("run", "t_end", "float", 1.3, "final time", "s", 0, 1e5, lo_open=True),
+    _Field("run", "save_every", "float", 0.005, "time between snapshots written to the netCDF file "
+           "(at most t_end)", "s", 0, None, lo_open=True),
+    _Field("run", "checkpoint_every", "float", 0.0, "simulated time between checkpoints "
+           "<out>.ckpt that `bsrflow run --resume` continues from (0: no checkpoints; at most "
+           "t_end)", "s", 0, None),
+    # [numerics]
+    _Field("numerics", "scheme", "str", "seed", "scheme preset: \"seed\" (Kutta RK3 + moving "
+           "average every step, CFL 0.5) or \"accurate\" (RK4, CFL 0.9, selective dissipation)",
+           choices=_SCHEMES),
+    _Field("numerics", "points_per_diameter", "int", 10, "grid cells per sphere diameter (the "
+           "interaction radius d must span at least 2 cells)", "", 2, 1000),
+    _Field("numerics", "cfl", "float", None, "Courant number override (default: the preset's); "
+           "at most the chosen stepper's stability limit", "", 0, 4, lo_open=True),
+    _Field("numerics", "stepper", "str", None, "Runge-Kutta stepper override (default: the "
+           "preset's)", choices=_STEPPERS),
+    _Field("numerics", "rtol", "float", None, "relative tolerance for adaptive time stepping "
+           "(needs a stepper with an embedded pair: heun, kutta3, bs32; default: off)", "", 0, 1,
+           lo_open=True, hi_open=True),
+    _Field("numerics", "atol", "pair", None, "absolute tolerances [u in m/s, rho in kg/m] of adaptive "
+           "stepping (default [1e-6, 1e-6]; only with rtol)", "", 0, 1e3, lo_open=True),
+    _Field("numerics", "domain_height", "float", None, "height of the computational domain "
+           "(default: the energy bound; at least the energy bound)", "m", 0, 1e4, lo_open=True),
+)
+
+_BY_NAME = {f.name: f for f in FIELDS}
+_TABLES = ("column", "tap", "run", "numerics")
+_TABLE_DOC = {
+    "column": "the spheres and the continuum constants",
+    "tap": "half-sine displacement pulses of the floor (seed eq. 4.5)",
+    "run": "times; output goes to the netCDF file given to `bsrflow run --out` (default: CONFIG with .nc)",
+    "numerics": "grid and scheme",
+}
+_ALIASES = {
+    "f": "tap.frequency", "tap_start": "tap.start", "tap_period": "tap.period",
+    "ppd": "numerics.points_per_diameter", "d": "column.diameter", "e": "column.restitution",
+    "eps": "column.kernel_dissipation", "N": "column.n_spheres", "K": "column.stiffness",
+    "g": "column.gravity", "taps": "tap.n_taps",
+}
+# ColumnSetup's parameter names -> dotted fields (to rename its messages)
+_SETUP_NAMES = {
+    "n_spheres": "column.n_spheres", "diameter": "column.diameter", "density": "column.density",
+    "stiffness": "column.stiffness", "restitution": "column.restitution", "m0": "column.m0",
+    "kernel_dissipation": "column.kernel_dissipation", "gravity": "column.gravity",
+    "a_over_d": "tap.a_over_d", "frequency": "tap.frequency", "tap_start": "tap.start",
+    "n_taps": "tap.n_taps", "tap_period": "tap.period", "t_end": "run.t_end",
+    "save_every": "run.save_every", "points_per_diameter": "numerics.points_per_diameter",
+    "domain_height": "numerics.domain_height", "scheme": "numerics.scheme", "cfl": "numerics.cfl",
+    "stepper": "numerics.stepper", "rtol": "numerics.rtol", "impulses": "tap.impulses",
+    "period": "tap.period", "start": "tap.start", "amplitude": "tap.a_over_d",
+}
+
+
+def _short_names() -> dict[str, str]:
+    leaf: dict[str, list[str]] = {}
+    for f in FIELDS:
+        leaf.setdefault(f.key, []).append(f.name)
+    out = {k: v[0] for k, v in leaf.items() if len(v) == 1}
+    out.update(_ALIASES)
+    return out
+
+
+_SHORT = _short_names()
+
+
+def _suggest(word: str, candidates) -> str:
+    m = difflib.get_close_matches(word, list(candidates), n=1, cutoff=0.6)
+    return m[0] if m else ""
+
+
+def _toml_value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return repr(v)
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, (tuple, list)):
+        return "[" + ", ".join(_toml_value(a) for a in v) + "]"
+    if v is None:
+        return "(absent)"
+    return repr(v)
+
+
+def _describe(v) -> str:
+    """How a TOML value of the wrong type is named in messages."""
+    if isinstance(v, bool):
+        return f"the boolean {_toml_value(v)}"
+    if isinstance(v, int):
+        return f"the integer {v}"
+    if isinstance(v, float):
+        return f"the float {v!r}"
+    if isinstance(v, str):
+        return f"the string {_toml_value(v)}"
+    if isinstance(v, list):
+        return "an array"
+    if isinstance(v, dict):
+        return "a table"
+    return f"a {type(v).__name__} ({v})"
+
+
+def _check_type(f: _Field, v):
+    """Return v converted to the field's type, or raise ConfigError."""
+    if f.kind == "int":
+        if isinstance(v, int) and not isinstance(v, bool):
+            return v
+        hint = f" (write {int(v)})" if isinstance(v, float) and math.isfinite(v) and v == int(v) else ""
+        raise ConfigError(f.name, f"expected an integer, got {_describe(v)}{hint}; valid range "
+                          f"{f.range_text()}", v, f.range_text())
+    if f.kind == "float":
+        if isinstance(v, (int, float)) and not isinstance(v, bool):
+            return float(v)
+        raise ConfigError(f.name, f"expected a number{(' [' + f.unit + ']') if f.unit else ''}, got "
+                          f"{_describe(v)}; valid range {f.range_text()}", v, f.range_text())
+    if f.kind == "pair":
+        if (isinstance(v, (list, tuple)) and len(v) == 2
+                and all(isinstance(a, (int, float)) and not isinstance(a, bool) for a in v)):
+            return (float(v[0]), float(v[1]))
+        raise ConfigError(f.name, f"expected an array of two numbers [m/s, kg/m], got {_describe(v)}; "
+                          f"valid range: each in {f.range_text()}", v, f.range_text())
+    if f.kind == "bool":
+        if isinstance(v, bool):
+            return v
+        raise ConfigError(f.name, f"expected true or false, got {_describe(v)}", v, "true or false")
+    if f.kind == "str":
+        if isinstance(v, str):
+            if v in f.choices:
+                return v
+            near = _suggest(v, f.choices)
+            raise ConfigError(f.name, f"{_toml_value(v)} is not valid; valid values: {f.range_text()}"
+                              + (f' (did you mean "{near}"?)' if near else ""), v, f.range_text())
+        raise ConfigError(f.name, f"expected a string, got {_describe(v)}; valid values: "
+                          f"{f.range_text()}", v, f.range_text())
+    raise AssertionError(f.kind)
+
+
+def _range_error(f: _Field, v, hi=None, why: str = "") -> ConfigError:
+    rng = f.range_text(hi)
+    return ConfigError(f.name, f"{_toml_value(v)} is outside the valid range {rng}"
+                       + (f" ({why})" if why else ""), v, rng)
+
+
+def _cfl_limit(stepper: str, filt: bool) -> float:
+    return CFL_LIMITS[(_STEPPER_ALIASES.get(stepper, stepper), filt)]
+
+
+# -- sections and the config ------------------------------------------------------------------
+class Section(Mapping):
+    """Read-only view of one table: ``cfg.tap.a_over_d`` or ``cfg.tap["a_over_d"]``."""
+
+    def __init__(self, table: str, values: dict):
+        object.__setattr__(self, "_table", table)
+        object.__setattr__(self, "_values", values)
+
+    def __getattr__(self, key):
+        try:
+            return self._values[f"{self._table}.{key}"]
+        except KeyError:
+            raise AttributeError(f"[{self._table}] has no key {key!r}") from None
+
+    def __setattr__(self, key, value):
+        raise AttributeError("Config is read-only; use Config.with_overrides")
+
+    def __getitem__(self, key):
+        return self._values[f"{self._table}.{key}"]
+
+    def __iter__(self):
+        return (f.key for f in FIELDS if f.table == self._table)
+
+    def __len__(self):
+        return sum(1 for f in FIELDS if f.table == self._table)
+
+    def __repr__(self):
+        return f"[{self._table}] " + ", ".join(f"{k}={self[k]!r}" for k in self)
+
+
+class Config:
+    """A validated tapped-column configuration (immutable).
+
+    Values are reached as ``cfg.column.diameter`` or ``cfg["column.diameter"]`` (SI units);
+    optional keys that are absent are ``None``.  Build with :func:`load_config` or
+    :meth:`from_dict`; change with :meth:`with_overrides`.
+    """
+
+    def __init__(self, values: dict, source: str | None = None):
+        self._values = dict(values)
+        self.source = source
+        for t in _TABLES:
+            setattr(self, t, Section(t, self._values))
+
+    # construction -------------------------------------------------------------------------------
+    @classmethod
+    def default(cls) -> "Config":
+        """The defaults (module docstring)."""
+        return cls.from_dict({})
+
+    @classmethod
+    def from_dict(cls, d: Mapping, source: str | None = None) -> "Config":
+        """Validate a nested mapping ``{"column": {...}, "tap": {...}, ...}`` (as ``tomllib``
+        returns it) and fill defaults.  Raises :class:`ConfigError`."""
+        if not isinstance(d, Mapping):
+            raise ConfigError("config", f"expected a table, got {_describe(d)}")
+        values = {f.name: f.default for f in FIELDS}
+        for table, body in d.items():
+            if table not in _TABLES:
+                if table in _SHORT and not isinstance(body, Mapping):   # a key outside any table
+                    raise ConfigError(table, f"a key outside any table; put it in "
+                                      f"[{_SHORT[table].split('.')[0]}] (as {_SHORT[table]})", body)
+                near = _suggest(table, _TABLES)
+                raise ConfigError(table, "unknown table" + (f"; did you mean [{near}]?" if near else "")
+                                  + f" (valid tables: {', '.join(_TABLES)})", body)
+            if not isinstance(body, Mapping):
+                raise ConfigError(table, f"expected a table [{table}], got {_describe(body)}", body)
+            for key, v in body.items():
+                name = f"{table}.{key}"
+                f = _BY_NAME.get(name)
+                if f is None:
+                    keys = [g.key for g in FIELDS if g.table == table]
+                    near = _suggest(key, keys)
+                    if near:
+                        hint = f"; did you mean {table}.{near}?"
+                    elif key in _SHORT:
+                        hint = f"; it belongs in another table: {_SHORT[key]}"
+                    else:
+                        other = _suggest(key, _SHORT)
+                        hint = f"; did you mean {_SHORT[other]}?" if other else ""
+                    raise ConfigError(name, f"unknown key in [{table}]{hint} (valid keys: "
+                                      f"{', '.join(keys)})", v)
+                values[name] = _check_type(f, v)
+        cfg = cls(values, source)
+        cfg._validate()
+        return cfg
+
+    def with_overrides(self, overrides: Mapping[str, Any]) -> "Config":
+        """A new validated config with some values replaced.  Keys: dotted names
+        (``"tap.a_over_d"``), unique short names (``"a_over_d"``, ``"t_end"``) or the aliases
+        ``f`` (tap.frequency), ``d`` (column.diameter), ``e`` (column.restitution), ``eps``
+        (column.kernel_dissipation), ``N`` (column.n_spheres), ``K`` (column.stiffness), ``g``
+        (column.gravity), ``taps`` (tap.n_taps), ``ppd`` (numerics.points_per_diameter), and
+        ColumnSetup's ``tap_start``, ``tap_period``.  A value ``None`` removes an optional key."""
+        nested = self.to_dict()
+        for key, v in overrides.items():
+            name = self.resolve_key(key)
+            table, k = name.split(".")
+            if v is None:
+                if _BY_NAME[name].default is not None:
+                    raise ConfigError(name, "cannot be removed (it is not optional)")
+                nested.get(table, {}).pop(k, None)
+            else:
+                nested.setdefault(table, {})[k] = v
+        return Config.from_dict(nested, self.source)
+
+    @staticmethod
+    def resolve_key(key: str) -> str:
+        """The dotted field name of ``key`` (dotted, short or alias); ConfigError if unknown."""
+        if key in _BY_NAME:
+            return key
+        if key in _SHORT:
+            return _SHORT[key]
+        near = _suggest(key, list(_BY_NAME) + list(_SHORT))
+        near = _SHORT.get(near, near)
+        raise ConfigError(key, "unknown key" + (f"; did you mean {near}?" if near else "")
+                          + f" (valid keys: {', '.join(_BY_NAME)})")
+
+    # validation ---------------------------------------------------------------------------------
+    def _validate(self):
+        v = self._values
+        for f in FIELDS:
+            x = v[f.name]
+            if x is None or f.kind in ("bool", "str") or f.name in ("run.save_every", "run.checkpoint_every"):
+                continue                        # (the last two: below, with t_end)
+            if f.kind == "pair":
+                if not all(f.in_range(a) for a in x):
+                    raise ConfigError(f.name, f"{_toml_value(x)} is outside the valid range: each in "
+                                      f"{f.range_text()}", x, f.range_text())
+                continue
+            if not f.in_range(x):
+                why = ""
+                if f.name == "numerics.points_per_diameter" and x < 2:
+                    why = "the interaction radius d must span at least 2 cells"
+                raise _range_error(f, x, why=why)
+        t_end = v["run.t_end"]
+        f = _BY_NAME["run.save_every"]
+        if not (math.isfinite(v["run.save_every"]) and 0.0 < v["run.save_every"] <= t_end):
+            raise _range_error(f, v["run.save_every"], t_end, f"at most run.t_end = {t_end:g} s")
+        if t_end / v["run.save_every"] > _MAX_SNAPSHOTS:
+            raise ConfigError(f.name, f"{v['run.save_every']!r} gives {t_end / v['run.save_every']:.3g} "
+                              f"snapshots; valid range [{t_end / _MAX_SNAPSHOTS:.3g}, {t_end:g}] s "
+                              f"(at most {_MAX_SNAPSHOTS} snapshots)", v["run.save_every"])
+        f = _BY_NAME["run.checkpoint_every"]
+        ce = v["run.checkpoint_every"]
+        if ce != 0.0 and not (math.isfinite(ce) and t_end / _MAX_CHECKPOINTS <= ce <= t_end):
+            rng = f"0 (off) or [{t_end / _MAX_CHECKPOINTS:.3g}, {t_end:g}] s"
+            raise ConfigError(f.name, f"{ce!r} is outside the valid range {rng} (at most run.t_end, "
+                              f"at most {_MAX_CHECKPOINTS} checkpoints)", ce, rng)
+        if v["tap.n_taps"] > 1 and v["tap.period"] < 0.5 / v["tap.frequency"]:
+            dur = 0.5 / v["tap.frequency"]
+            rng = f"[{dur:g}, 1e+05] s"
+            raise ConfigError("tap.period", f"{v['tap.period']!r} is outside the valid range {rng}: "
+                              f"shorter than one tap, which lasts 1/(2f) = {dur:g} s", v["tap.period"], rng)
+        # scheme: stepper, stability limit, adaptive stepping
+        preset = _preset(v["numerics.scheme"])
+        stepper = v["numerics.stepper"] or preset.stepper
+        filt = preset.filter
+        limit = _cfl_limit(stepper, filt)
+        if limit == 0.0:
+            raise ConfigError("numerics.stepper", f'"{stepper}" without the moving average (scheme '
+                              f'"{v["numerics.scheme"]}") is unstable at every CFL number; valid '
+                              'values: "kutta3", "rk4", "bs32", or scheme = "seed"', stepper)
+        cfl = v["numerics.cfl"] if v["numerics.cfl"] is not None else preset.cfl
+        if cfl > limit:
+            f = _BY_NAME["numerics.cfl"]
+            rng = f"(0, {limit:g}]"
+            where = "numerics.cfl" if v["numerics.cfl"] is not None else "numerics.stepper"
+            raise ConfigError(where, f"CFL {cfl!r} is above the stability limit {limit:g} of "
+                              f"{stepper}{' + moving average' if filt else ''}; valid range {rng}",
+                              cfl, rng)
+        if v["numerics.rtol"] is not None and stepper not in _EMBEDDED:
+            raise ConfigError("numerics.rtol", f"{v['numerics.rtol']!r}: adaptive stepping needs a stepper "
+                              f'with an embedded pair (heun, kutta3, bs32), but the stepper is "{stepper}"; '
+                              'set numerics.stepper = "bs32" or remove rtol', v["numerics.rtol"])
+        if v["numerics.atol"] is not None and v["numerics.rtol"] is None:
+            raise ConfigError("numerics.atol", f"{_toml_value(v['numerics.atol'])} given without numerics.rtol; "
+                              "absolute tolerances apply only to adaptive stepping (set rtol, or remove atol)",
+                              v["numerics.atol"])
+        # the column (ColumnSetup validates again; its messages are renamed to dotted fields)
+        setup = self.column_setup(domain_height=None)
+        if v["numerics.domain_height"] is not None:
+            need = setup.energy_bound_height()
+            if v["numerics.domain_height"] < need:
+                rng = f"[{need:.6g}, 1e+04] m"
+                raise ConfigError("numerics.domain_height", f"{v['numerics.domain_height']!r} is outside "
+                                  f"the valid range {rng}: the energy bound predicts flight up to "
+                                  f"{need:.4g} m", v["numerics.domain_height"], rng)
+        H = v["numerics.domain_height"] or setup.energy_bound_height()
+        if v["numerics.domain_height"] is None and H > _MAX_HEIGHT:
+            raise self._height_error(setup, H)
+        n_cells = H / v["column.diameter"] * v["numerics.points_per_diameter"]
+        if n_cells > _MAX_CELLS:
+            ppd = v["numerics.points_per_diameter"]
+            best = int(_MAX_CELLS * v["column.diameter"] / H)
+            if best >= 2:
+                raise ConfigError("numerics.points_per_diameter", f"{ppd} gives {n_cells:.3g} cells over "
+                                  f"the domain height {H:.4g} m (at most {_MAX_CELLS}); valid range here: "
+                                  f"integers in [2, {best}]", ppd, f"[2, {best}]")
+            raise ConfigError("column.diameter", f"{v['column.diameter']!r} m is too small for the domain "
+                              f"height {H:.4g} m: even 2 cells per diameter give {2 * H / v['column.diameter']:.3g} "
+                              f"cells (at most {_MAX_CELLS})", v["column.diameter"])
+        self.scheme()
+
+    def _height_error(self, setup, H) -> ConfigError:
+        """The energy-bound domain is taller than _MAX_HEIGHT: name the dominating cause."""
+        v = self._values
+        g, d = v["column.gravity"], v["column.diameter"]
+        launch = 3.0 * setup.amplitude * setup.omega if v["tap.n_taps"] > 0 else 0.0
+        c0 = setup.sound_speed()
+        vmax = math.sqrt(max(0.0, 2.0 * g * (_MAX_HEIGHT - (v["column.n_spheres"] + 3) * d)))
+        if 2.0 * c0 >= launch:
+            c_ok = max((vmax - launch) / 2.0, 1e-300)
+            m0_min = v["column.stiffness"] * d * d / (3.0 * c_ok * c_ok)
+            rng = f"[{m0_min:.4g}, 1e+12] kg"
+            return ConfigError("column.m0", f"{v['column.m0']!r} is outside the valid range {rng} here: "
+                               f"the kernel's sound speed c0 = sqrt(K d^2/(3 m0)) = {c0:.4g} m/s makes the "
+                               f"energy-bound domain {H:.4g} m tall (at most {_MAX_HEIGHT:g} m)",
+                               v["column.m0"], rng)
+        a_max = max(vmax - 2.0 * c0, 0.0) / (3.0 * setup.omega) / d
+        rng = f"[0, {a_max:.4g}]"
+        return ConfigError("tap.a_over_d", f"{v['tap.a_over_d']!r} is outside the valid range {rng} here: "
+                           f"the launch speed 3 a w = {launch:.4g} m/s makes the energy-bound domain "
+                           f"{H:.4g} m tall (at most {_MAX_HEIGHT:g} m)", v["tap.a_over_d"], rng)
+
+    # derived objects ----------------------------------------------------------------------------
+    def column_setup(self, **kw):
+        """:class:`bsrflow.physics.column.ColumnSetup` with these values (keywords override)."""
+        from ..physics.column import ColumnSetup
+        v = self._values
+        args = dict(
+            n_spheres=v["column.n_spheres"], diameter=v["column.diameter"], density=v["column.density"],
+            stiffness=v["column.stiffness"], restitution=v["column.restitution"], m0=v["column.m0"],
+            kernel_dissipation=v["column.kernel_dissipation"], gravity=v["column.gravity"],
+            a_over_d=v["tap.a_over_d"], frequency=v["tap.frequency"], tap_start=v["tap.start"],
+            n_taps=v["tap.n_taps"], tap_period=v["tap.period"], t_end=v["run.t_end"],
+            points_per_diameter=v["numerics.points_per_diameter"], scheme=v["numerics.scheme"],
+            save_every=v["run.save_every"], domain_height=v["numerics.domain_height"],
+            impulses=v["tap.impulses"])
+        args.update(kw)
+        try:
+            return ColumnSetup(**args)
+        except ValueError as exc:
+            raise _renamed(exc) from None
+
+    def scheme(self):
+        """:class:`bsrflow.numerics.solver.Scheme`: the preset with the cfl/stepper/rtol overrides."""
+        from ..numerics.solver import Scheme
+        over = {}
+        for k in ("cfl", "stepper", "rtol", "atol"):
+            if self._values[f"numerics.{k}"] is not None:
+                over[k] = self._values[f"numerics.{k}"]
+        try:
+            return Scheme.preset(self._values["numerics.scheme"], **over)
+        except ValueError as exc:
+            raise _renamed(exc) from None
+
+    def save_times(self):
+        """Snapshot times [s] from 0 to t_end (``solver.save_schedule``)."""
+        from ..numerics.solver import save_schedule
+        return save_schedule(0.0, self._values["run.t_end"], self._values["run.save_every"])
+
+    def checkpoint_times(self):
+        """Checkpoint times [s]: every run.checkpoint_every from 0, strictly inside (0, t_end)."""
+        import numpy as np
+        ce, t_end = self._values["run.checkpoint_every"], self._values["run.t_end"]
+        if ce <= 0.0:
+            return np.zeros(0)
+        n = int(np.floor(t_end / ce + 1e-9))
+        ts = ce * np.arange(1, n + 1)
+        return ts[ts < t_end - 1e-12 * max(1.0, t_end)]
+
+    # access and output --------------------------------------------------------------------------
+    def __getitem__(self, name: str):
+        return self._values[self.resolve_key(name)]
+
+    def __eq__(self, other):
+        return isinstance(other, Config) and self._values == other._values
+
+    def __repr__(self):
+        return "Config(" + ", ".join(f"{k}={v!r}" for k, v in self._values.items() if v is not None) + ")"
+
+    def to_dict(self) -> dict:
+        """Nested plain dict ``{table: {key: value}}``; absent optional keys are left out."""
+        out: dict = {t: {} for t in _TABLES}
+        for f in FIELDS:
+            val = self._values[f.name]
+            if val is not None:
+                out[f.table][f.key] = list(val) if isinstance(val, tuple) else val
+        return out
+
+    def to_toml(self) -> str:
+        """Commented TOML text (units, valid ranges) that :func:`load_config` reads back to an
+        equal config.  Absent optional keys appear commented out."""
+        lines = [
+            "# bsrflow: the vertically tapped column of spheres (BSR continuum model).",
+            "# Run with `bsrflow run THIS_FILE [--out FILE.nc]`.  SI units throughout.  Every key is",
+            "# optional (the package default is used when absent); valid ranges: [a, b] closed,",
+            "# (a, b) open.  `bsrflow run` checks every value before it starts.",
+        ]
+        for t in _TABLES:
+            lines += ["", f"[{t}]  # {_TABLE_DOC[t]}"]
+            for f in FIELDS:
+                if f.table != t:
+                    continue
+                unit = f" [{f.unit}]" if f.unit else ""
+                rng = f.range_text()
+                if f.name == "run.save_every":
+                    rng = "(0, t_end] s"
+                elif f.name == "run.checkpoint_every":
+                    rng = "0 (off) or (0, t_end] s"
+                elif f.name == "numerics.cfl":
+                    rng = ("(0, limit]: euler 0.7071, heun 1.5289, kutta3/bs32 2.3388, rk4 3.1010 with "
+                           "the moving average (seed); kutta3/bs32 1.7321, rk4 2.8284 without (accurate)")
+                lines.append(f"# {f.doc}{unit}; valid: {rng}")
+                val = self._values[f.name]
+                if val is None:
+                    example = {"numerics.cfl": "0.5", "numerics.stepper": '"bs32"', "numerics.rtol": "1e-4",
+                               "numerics.atol": "[1e-3, 1e-3]", "numerics.domain_height": "3.5"}[f.name]
+                    lines.append(f"# {f.key} = {example}")
+                else:
+                    lines.append(f"{f.key} = {_toml_value(val)}")
+        return "\n".join(lines) + "\n"
+
+
+def _preset(name):
+    from ..numerics.solver import Scheme
+    return Scheme.preset(name)
+
+
+_NAME_RE = re.compile(r"^(\w+) = (.*)$", re.S)
+
+
+def _renamed(exc: ValueError) -> ConfigError:
+    """A ColumnSetup/Scheme ValueError 'name = value ...' as a ConfigError naming the dotted field."""
+    msg = str(exc)
+    m = _NAME_RE.match(msg)
+    if m and m.group(1) in _SETUP_NAMES:
+        return ConfigError(_SETUP_NAMES[m.group(1)], m.group(2))
+    return ConfigError("config", msg)
+
+
+# -- files ----------------------------------------------------------------------------------------
+_TOML_POS = re.compile(r"\s*\(at line (\d+), column (\d+)\)\s*$")
+
+
+def load_config(path) -> Config:
+    """Read and validate a TOML config file.  Raises :class:`ConfigError` (one line) for a missing
+    or unreadable file, a TOML syntax error (with the line number) or an invalid value."""
+    path = os.fspath(path)
+    try:
+        with open(path, "rb") as fh:
+            data = tomllib.load(fh)
+    except FileNotFoundError:
+        raise ConfigError(path, f"no such config file (write one with `bsrflow init {path}`)") from None
+    except IsADirectoryError:
+        raise ConfigError(path, "is a directory, not a config file") from None
+    except PermissionError:
+        raise ConfigError(path, "cannot read the config file (permission denied)") from None
+    except tomllib.TOMLDecodeError as exc:
+        msg = str(exc)
+        m = _TOML_POS.search(msg)
+        if m:
+            msg = f"line {m.group(1)}, column {m.group(2)}: invalid TOML: {msg[:m.start()]}"
+        else:
+            msg = f"invalid TOML: {msg}"
+        raise ConfigError(path, msg) from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(path, f"invalid TOML: the file is not UTF-8 text ({exc.reason} at byte "
+                          f"{exc.start})") from None
+    return Config.from_dict(data, source=path)
+
+
+def default_config_text() -> str:
+    """The commented default config (what ``bsrflow init`` writes)."""
+    return Config.default().to_toml()
+
+
+def parse_override(text: str) -> tuple[str, Any]:
+    """``"KEY=VALUE"`` (as given to ``bsrflow run --set``) -> (dotted key, value).  VALUE is read as
+    a TOML value (``0.5``, ``3``, ``true``, ``"accurate"``); a bare word is taken as a string."""
+    if "=" not in text:
+        raise ConfigError(text, "expected KEY=VALUE (e.g. tap.a_over_d=0.5)")
+    key, _, raw = text.partition("=")
+    key = Config.resolve_key(key.strip())
+    raw = raw.strip()
+    try:
+        value = tomllib.loads(f"v = {raw}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw
+    return key, value

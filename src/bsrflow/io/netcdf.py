@@ -1,0 +1,283 @@
+"""netCDF4 output of a tapped-column run, written snapshot by snapshot as the run goes.
+
+:class:`NetCDFWriter` is an observer ``obs(t, u, rho, tracers)`` for
+:meth:`bsrflow.numerics.solver.Simulation.run`.  Schema (``SCHEMA``; `bsrflow plot` reads it):
+
+========================  ==================  ============================================
+variable (dims)           units               long_name
+========================  ==================  ============================================
+time (time)               s                   simulated time
+x (x)                     m                   height above the floor of the cell centre (floor frame)
+tracer (tracer)           1                   tracer index (sphere number from the floor, 0-based)
+rho (time, x)             kg m-1              line density
+u (time, x)               m s-1               velocity relative to the floor
+tracer_height (time, tracer) m                tracer height (lab frame)
+floor (time)              m                   floor position (lab frame)
+top (time)                m                   height of the top tracer (lab frame)
+mass_centre (time)        m                   height of the mass centre (lab frame)
+mass (time)               kg                  total mass
+kinetic_energy (time)     J                   kinetic energy sum(rho u^2/2 dx) (floor frame)
+========================  ==================  ============================================
+
+``time`` is unlimited.  Global attributes: ``bsrflow_version``, ``config`` (the full TOML text),
+``scenario`` = "tapped_column", ``scheme``, ``diameter`` [m], ``status`` ("running" while the run
+goes, then "ok" or the message of the monitor that stopped it), ``created`` (ISO 8601, UTC).
+Lab-frame heights are measured from the floor at rest.
+
+Crash safety.  A run killed at any moment (SIGKILL included) leaves a file that
+``xarray.open_dataset`` opens, holding every snapshot written so far:
+
+* the file appears atomically: it is first written complete (with the first snapshot, or with
+  the snapshots kept on ``--resume``) to a temporary file that is then renamed over the target
+  (``os.replace``);
+* after that, a snapshot is appended in place (HDF5 via h5py, the file laid out by h5netcdf) and
+  the HDF5 file is flushed (``H5Fflush``) before the run continues, so between snapshots the file
+  on disk is complete and consistent.  The row chunks of every time-dependent variable are
+  sized for the whole planned run (up to 8 MiB per chunk), so an append writes the new row into
+  file space allocated when the file appeared and rewrites the fixed-size dataspace headers in
+  place: no allocation and no index change, the operations that could leave dangling pointers if
+  a kill interrupted a flush.  (Past the planned size -- not the case for `bsrflow run` -- new
+  chunks are allocated; that window is then not covered.)
+* the file is opened without the HDF5 file lock, so it can be read while the run goes.
+
+``tests/test_run_io.py`` kills writers at random moments and opens every file left behind.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import os
+
+import numpy as np
+
+from .. import __version__
+
+__all__ = ["NetCDFWriter", "SCHEMA", "read_snapshots"]
+
+SCHEMA = {
+    # name: (dims, units, long_name)
+    "time": (("time",), "s", "simulated time"),
+    "x": (("x",), "m", "height above the floor of the cell centre (floor frame)"),
+    "tracer": (("tracer",), "1", "tracer index (sphere number from the floor, 0-based)"),
+    "rho": (("time", "x"), "kg m-1", "line density"),
+    "u": (("time", "x"), "m s-1", "velocity relative to the floor"),
+    "tracer_height": (("time", "tracer"), "m", "tracer height (lab frame)"),
+    "floor": (("time",), "m", "floor position (lab frame)"),
+    "top": (("time",), "m", "height of the top tracer (lab frame)"),
+    "mass_centre": (("time",), "m", "height of the mass centre (lab frame)"),
+    "mass": (("time",), "kg", "total mass"),
+    "kinetic_energy": (("time",), "J", "kinetic energy sum(rho u^2/2 dx) (floor frame)"),
+}
+"""Variables of the output file: name -> (dimensions, units, long_name)."""
+
+_TIME_VARS = [k for k, (dims, _, _) in SCHEMA.items() if dims[0] == "time"]
+_SERIES = [k for k in _TIME_VARS if SCHEMA[k][0] == ("time",)]      # 1-D in time
+_CHUNK_BYTES = 8 * 2 ** 20
+
+
+def _now() -> str:
+    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+
+
+class NetCDFWriter:
+    """Write snapshots of a 1-D column run into a netCDF4 file as they come (module docstring).
+
+    Parameters
+    ----------
+    path : output file (``.nc``); replaced when the first snapshot arrives.
+    x : cell centres [m] (floor frame).
+    dx : cell width [m].
+    n_tracers : number of tracers (0 allowed).
+    floor : callable ``floor(t) -> ϑ(t)`` [m], the floor position in the lab frame
+        (``motion.state(t)[0]``).
+    attrs : further global attributes (``config``, ``scheme``, ``diameter`` [m], ...).
+    expected_snapshots : how many snapshots the run will write (sizes the chunks; see the
+        module docstring).
+
+    Call ``writer(t, u, rho, tracers)`` at every save (t [s], u [m/s], rho [kg/m], tracers [m]
+    floor frame); ``close(status)`` at the end.  The 1-D series written so far are kept in memory
+    (``series(name)``), e.g. for a summary.
+    """
+
+    def __init__(self, path, x, dx, n_tracers, floor, attrs=None, expected_snapshots=None):
+        self.path = os.fspath(path)
+        self.x = np.ascontiguousarray(x, dtype=float)
+        self.dx = float(dx)
+        self.n_tracers = int(n_tracers)
+        self.floor = floor
+        self.attrs = {"bsrflow_version": __version__, "scenario": "tapped_column", "created": _now()}
+        self.attrs.update(attrs or {})
+        self.attrs["status"] = "running"
+        self.expected = max(1, int(expected_snapshots or 1))
+        self._rows: dict[str, list] | None = {k: [] for k in _TIME_VARS}   # before the file appears
+        self._series = {k: [] for k in _SERIES}
+        self._h5 = None
+        self._ds = {}
+        self.n = 0
+        self.closed = False
+
+    # -- resuming ---------------------------------------------------------------------------------
+    @classmethod
+    def resume(cls, path, keep_before, x, dx, n_tracers, floor, expected_snapshots=None):
+        """Reopen a partial file, keep its snapshots with time < ``keep_before`` [s] and return a
+        writer that appends after them (x [m], dx [m], n_tracers, floor as for the constructor;
+        x and n_tracers must match the file).  The file is rewritten atomically with the kept
+        snapshots (status "running"; the other attributes, ``created`` included, are kept)."""
+        data, attrs = read_snapshots(path)
+        x = np.ascontiguousarray(x, dtype=float)
+        if data["x"].shape != x.shape or not np.array_equal(data["x"], x):
+            raise ValueError(f"{os.fspath(path)}: its grid x differs from this run's ({data['x'].size} "
+                             f"against {x.size} cells)")
+        if data["tracer"].size != int(n_tracers):
+            raise ValueError(f"{os.fspath(path)}: it has {data['tracer'].size} tracers, this run {n_tracers}")
+        keep = data["time"] < keep_before
+        w = cls(path, x, dx, n_tracers, floor, expected_snapshots=expected_snapshots)
+        w.attrs = dict(attrs)
+        w.attrs["status"] = "running"
+        for k in _TIME_VARS:
+            w._rows[k] = list(data[k][keep])
+        for k in _SERIES:
+            w._series[k] = list(data[k][keep])
+        w.n = int(keep.sum())
+        if w.n:
+            w._publish()
+        return w
+
+    # -- the observer -----------------------------------------------------------------------------
+    def __call__(self, t, u, rho, tracers):
+        """Append the snapshot at t [s] and flush it to disk."""
+        if self.closed:
+            raise RuntimeError(f"{self.path}: writer is closed")
+        t = float(t)
+        fl = float(self.floor(t))
+        u = np.asarray(u, dtype=float)
+        rho = np.asarray(rho, dtype=float)
+        tr = np.asarray(tracers, dtype=float).reshape(-1)
+        mass = rho.sum() * self.dx
+        row = {
+            "time": t,
+            "rho": rho.copy(),
+            "u": u.copy(),
+            "tracer_height": tr + fl,
+            "floor": fl,
+            "top": (tr[-1] + fl) if tr.size else np.nan,
+            "mass_centre": (rho * self.x).sum() * self.dx / mass + fl if mass > 0 else np.nan,
+            "mass": mass,
+            "kinetic_energy": 0.5 * (rho * u ** 2).sum() * self.dx,
+        }
+        for k in _SERIES:
+            self._series[k].append(row[k])
+        if self._h5 is None:
+            for k in _TIME_VARS:
+                self._rows[k].append(row[k])
+            self.n += 1
+            self._publish()
+            return
+        k0 = self.n
+        for k in _TIME_VARS:
+            ds = self._ds[k]
+            ds.resize(k0 + 1, axis=0)
+            ds[k0] = row[k]
+        self.n += 1
+        self._h5.flush()
+
+    def series(self, name) -> np.ndarray:
+        """A 1-D time series written so far: time, floor, top, mass_centre, mass, kinetic_energy."""
+        return np.asarray(self._series[name], dtype=float)
+
+    def close(self, status: str | None = None):
+        """Set the ``status`` attribute (e.g. "ok" or a stop message) and close the file."""
+        if self.closed:
+            return
+        if status is not None:
+            self.attrs["status"] = " ".join(str(status).split())
+        if self._h5 is None:
+            if self.n == 0:
+                self.closed = True
+                return
+            self._publish()
+        self._h5.attrs["status"] = self.attrs["status"]
+        self._h5.flush()
+        self._h5.close()
+        self._h5 = None
+        self.closed = True
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        self.close(None if exc is None else f"failed: {type(exc).__name__}: {exc}")
+
+    # -- file creation ----------------------------------------------------------------------------
+    def _chunk_rows(self, bytes_per_row):
+        return int(max(1, min(max(self.expected, self.n), _CHUNK_BYTES // max(8, bytes_per_row))))
+
+    def _publish(self):
+        """Write the whole file (schema + rows in memory) to a temporary file, rename it over the
+        target, and reopen it for appending."""
+        import h5netcdf
+        import h5py
+
+        if self._h5 is not None:
+            self._h5.close()
+            self._h5 = None
+        tmp = f"{self.path}.tmp{os.getpid()}"
+        nx, ntr, n = self.x.size, self.n_tracers, self.n
+        try:
+            with h5netcdf.File(tmp, "w") as f:
+                f.dimensions = {"time": None, "x": nx, "tracer": ntr}
+                for name, (dims, units, long_name) in SCHEMA.items():
+                    if dims[0] == "time":
+                        row_shape = tuple(nx if d == "x" else ntr for d in dims[1:])
+                        per_row = 8 * int(np.prod(row_shape)) if row_shape else 8
+                        chunks = (self._chunk_rows(per_row),) + tuple(max(1, s) for s in row_shape)
+                        v = f.create_variable(name, dims, "f8", chunks=chunks, fillvalue=np.nan)
+                    elif name == "tracer":
+                        v = f.create_variable(name, dims, "i4")
+                    else:
+                        v = f.create_variable(name, dims, "f8")
+                    v.attrs["units"] = units
+                    v.attrs["long_name"] = long_name
+                f.variables["x"][:] = self.x
+                f.variables["tracer"][:] = np.arange(ntr, dtype=np.int32)
+                for k, val in self.attrs.items():
+                    f.attrs[k] = val
+                f.resize_dimension("time", n)
+                if n:
+                    for k in _TIME_VARS:
+                        f.variables[k][...] = np.asarray(self._rows[k], dtype=float).reshape(
+                            f.variables[k].shape)
+            with open(tmp, "rb+") as fh:
+                os.fsync(fh.fileno())
+            os.replace(tmp, self.path)
+        finally:
+            if os.path.exists(tmp):
+                os.remove(tmp)
+        self._rows = None
+        self._h5 = h5py.File(self.path, "r+", locking=False)
+        self._ds = {k: self._h5[k] for k in _TIME_VARS}
+
+
+def read_snapshots(path):
+    """Read an output file: ``(data, attrs)`` with every variable of ``SCHEMA`` as a NumPy array and
+    the global attributes as a dict (what ``--resume`` uses; for analysis use xarray)."""
+    import h5py
+
+    with h5py.File(os.fspath(path), "r", locking=False) as h:
+        n = min(h[k].shape[0] for k in _TIME_VARS)       # equal unless a write was cut short
+        data = {}
+        for k in SCHEMA:
+            arr = h[k][...]
+            data[k] = arr[:n] if k in _TIME_VARS else arr
+        attrs = {}
+        for k, v in h.attrs.items():
+            if k.startswith("_NC"):
+                continue
+            if isinstance(v, bytes):
+                v = v.decode()
+            elif isinstance(v, np.ndarray) and v.shape == ():
+                v = v.item()
+            elif isinstance(v, np.generic):
+                v = v.item()
+            attrs[k] = v
+    return data, attrs

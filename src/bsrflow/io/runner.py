@@ -1,0 +1,218 @@
+"""Run a tapped-column configuration into a netCDF file, with checkpoints and resume.
+
+:func:`run_config` is what ``bsrflow run`` does::
+
+    from bsrflow.io import load_config, run_config
+    outcome = run_config(load_config("column.toml"), "column.nc")        # raises SimulationError
+    outcome = run_config(cfg, "column.nc", resume=True)                   # after a kill
+
+How a resumed run equals an uninterrupted one bit for bit
+----------------------------------------------------------
+* The checkpoint times (every ``run.checkpoint_every`` from t = 0) are events of *every* run of
+  the configuration, interrupted or not (``Simulation.run(extra_event_times=...)``): a step
+  ends exactly there.  Everything else about the step sequence is a function of the state and
+  the next event: ``advance`` starts afresh at every event (the adaptive stepper's step-size
+  proposal is *not* carried across events, so nothing else needs storing).
+* A checkpoint holds the state at its time t *before* the velocity jump and the save at t
+  (``on_event`` runs first).  The resumed run starts at t_start = t and applies the jump at t
+  itself (``jumps_between`` is half-open, [t, t_end), so it includes t, once) and saves at t.
+* The save schedule is computed from the original t = 0 (``Config.save_times``) and filtered to
+  the times >= t, not recomputed from the resume time.
+* The output file keeps the snapshots with time < t and appends from there (``NetCDFWriter.resume``).
+"""
+
+from __future__ import annotations
+
+import os
+import time as _time
+import tomllib
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..numerics.solver import Simulation, SimulationError
+from ..physics.column import initial_density
+from .checkpoint import Checkpoint, checkpoint_path, read_checkpoint, write_checkpoint
+from .config import Config, ConfigError
+from .netcdf import NetCDFWriter, read_snapshots
+
+__all__ = ["run_config", "RunOutcome", "column_simulation"]
+
+
+@dataclass
+class RunOutcome:
+    """What a finished run wrote.
+
+    path : the netCDF file; status : "ok" or "complete already" (``--resume`` on a finished file);
+    n_snapshots : snapshots in the file; t_end [s]; steps : time steps from t = 0;
+    wall_time [s] : wall-clock time of the time loop over all segments (without compiling);
+    compile_time [s] : compiling the time loop in this process; top_max_over_d : maximum lab-frame height of
+    the top tracer in units of d, at ``t_top_max`` [s]; resumed_from [s] : checkpoint time or None.
+    """
+
+    path: str
+    status: str
+    n_snapshots: int
+    t_end: float
+    steps: int
+    wall_time: float
+    top_max_over_d: float
+    t_top_max: float
+    resumed_from: float | None = None
+    compile_time: float = 0.0
+
+    def summary(self) -> str:
+        """One line: top max over d, steps, wall time, file."""
+        top = f"top max {self.top_max_over_d:.4g} d at t = {self.t_top_max:.4g} s"
+        if self.status != "ok":
+            return f"{self.status}: {self.n_snapshots} snapshots to t = {self.t_end:.6g} s; {top}; file {self.path}"
+        resumed = f" (resumed from t = {self.resumed_from:.6g} s)" if self.resumed_from is not None else ""
+        return (f"{self.status}: {self.n_snapshots} snapshots to t = {self.t_end:.6g} s, {self.steps} steps"
+                f"{resumed}; {top}; wall time {self.wall_time:.3g} s (+ {self.compile_time:.3g} s "
+                f"compiling); wrote {self.path}")
+
+
+def column_simulation(config: Config):
+    """(setup, grid, model, Simulation) of the configuration, with the monitors of
+    :func:`bsrflow.physics.column.run_bsr_column` (vacuum threshold 1e-4 m/d, top tolerance
+    1e-3 m/d [kg/m]); a run of it without checkpoints equals ``run_bsr_column`` bit for bit
+    (tested)."""
+    setup = config.column_setup()
+    grid = setup.grid()
+    model = setup.model()
+    line = setup.particle_mass / setup.diameter
+    sim = Simulation(model, grid, config.scheme(), vacuum_density=1e-4 * line, top_tolerance=1e-3 * line)
+    return setup, grid, model, sim
+
+
+def _config_difference(a: Config, b: Config) -> str:
+    da, db = a.to_dict(), b.to_dict()
+    for table in da:
+        for key in sorted(set(da[table]) | set(db[table])):
+            va, vb = da[table].get(key), db[table].get(key)
+            if va != vb:
+                return f"{table}.{key} ({vb!r} in the checkpoint, {va!r} now)"
+    return ""
+
+
+def run_config(config: Config, out, *, resume: bool = False, progress=None, log=None) -> RunOutcome:
+    """Run ``config`` and write snapshots to the netCDF file ``out`` as the run goes.
+
+    Checkpoints go to ``<out>.ckpt`` every ``run.checkpoint_every`` seconds of simulated time
+    (removed when the run finishes).  ``resume=True`` continues from that checkpoint: the
+    config must be the one of the checkpoint, ``out`` must hold the snapshots before it.
+    progress : callable ``progress(t)`` [s] called at every save and checkpoint;
+    log : callable ``log(message)`` for informational lines.
+    Raises ConfigError (a ValueError; one line) for an unusable output path or a resume that
+    cannot be done, and :class:`SimulationError` when a monitor stops the run: the file keeps
+    every snapshot saved and its ``status`` attribute is the message.
+    """
+    out = os.fspath(out)
+    log = log or (lambda msg: None)
+    folder = os.path.dirname(os.path.abspath(out))
+    if not os.path.isdir(folder):
+        raise ConfigError("--out", f"directory {folder} does not exist")
+    if os.path.isdir(out):
+        raise ConfigError("--out", f"{out} is a directory; give a file name (e.g. run.nc)")
+    ckpt_file = checkpoint_path(out)
+    setup, grid, model, sim = column_simulation(config)
+    save_times = config.save_times()
+    ckpt_times = config.checkpoint_times()
+    t_end = float(config.run.t_end)
+    n_tr = setup.n_spheres
+    motion = model.motion
+
+    def floor(t):
+        return motion.state(t)[0]
+
+    steps0, rejected0, wall0, t0 = 0, 0, 0.0, 0.0
+    if resume:
+        if not os.path.exists(ckpt_file):
+            if os.path.exists(out):
+                try:
+                    data, attrs = read_snapshots(out)
+                except Exception:
+                    attrs, data = {}, None
+                if attrs.get("status") == "ok" and data is not None:
+                    top = data["top"] / setup.diameter
+                    i = int(np.nanargmax(top)) if np.any(np.isfinite(top)) else 0
+                    log(f"{out} is complete already (status ok); nothing to resume")
+                    return RunOutcome(out, "complete already", int(data["time"].size),
+                                      float(data["time"][-1]), 0, 0.0, float(top[i]), float(data["time"][i]))
+            raise ConfigError("--resume", f"no checkpoint {ckpt_file} to resume from (checkpoints are "
+                              "written when run.checkpoint_every > 0); run without --resume to start over")
+        if not os.path.exists(out):
+            raise ConfigError("--resume", f"the checkpoint {ckpt_file} exists but the output {out} does not; "
+                              "run without --resume to start over")
+        try:
+            ck = read_checkpoint(ckpt_file)
+            old = Config.from_dict(tomllib.loads(ck.config))
+        except (ValueError, tomllib.TOMLDecodeError) as exc:
+            raise ConfigError("--resume", f"cannot read the checkpoint: {exc}") from None
+        diff = _config_difference(config, old)
+        if diff:
+            raise ConfigError("--resume", f"the config differs from the checkpoint's in {diff}; resume with "
+                              "the same config or run without --resume to start over")
+        if ck.u.shape != (grid.n_cells,) or ck.tracers.shape != (n_tr,):
+            raise ConfigError("--resume", f"the checkpoint's state does not match the grid of the config")
+        expected = save_times[save_times < ck.t]
+        try:
+            writer = NetCDFWriter.resume(out, ck.t, grid.x, grid.dx, n_tr, floor,
+                                         expected_snapshots=save_times.size)
+        except Exception as exc:                       # unreadable or foreign file
+            raise ConfigError("--resume", f"cannot reopen {out}: {type(exc).__name__}: {exc}") from None
+        kept = writer.series("time")
+        if kept.size != expected.size or not np.array_equal(kept, expected):
+            writer.close("resume failed: snapshots missing before the checkpoint")
+            raise ConfigError("--resume", f"{out} holds {kept.size} snapshots before the checkpoint time "
+                              f"t = {ck.t:.6g} s, expected {expected.size}; run without --resume to start over")
+        u0, rho0, tr0, t0 = ck.u, ck.rho, ck.tracers, ck.t
+        steps0, rejected0, wall0 = ck.steps, ck.rejected_steps, ck.wall_time
+        log(f"resuming from the checkpoint at t = {t0:.6g} s ({kept.size} snapshots kept in {out})")
+    else:
+        if os.path.exists(ckpt_file):
+            os.remove(ckpt_file)                       # stale: belongs to an earlier run
+        attrs = {"config": config.to_toml(), "scheme": sim.scheme.name, "diameter": float(setup.diameter)}
+        writer = NetCDFWriter(out, grid.x, grid.dx, n_tr, floor, attrs, expected_snapshots=save_times.size)
+        u0, rho0, tr0 = np.zeros(grid.n_cells), initial_density(setup, grid.x), setup.sphere_centres()
+
+    # compile the time loop now (a no-op advance: t_end = t), not in the middle of the progress bar
+    log("compiling the solver (once per process; about 10 s)")
+    compile_start = _time.perf_counter()
+    sim.advance(np.array(u0, float), np.array(rho0, float), t0, t0, np.array(tr0, float))
+    wall_start = _time.perf_counter()
+    compile_time = wall_start - compile_start
+    rejected_start = int(sim.counters[0])
+    if progress is not None:
+        progress(t0)
+
+    def on_checkpoint(t, u, rho, tr, steps):
+        write_checkpoint(ckpt_file, Checkpoint(
+            t=t, u=u, rho=rho, tracers=tr, steps=steps0 + steps,
+            rejected_steps=rejected0 + int(sim.counters[0]) - rejected_start,
+            wall_time=wall0 + _time.perf_counter() - wall_start, n_snapshots=writer.n, config=config.to_toml()))
+        if progress is not None:
+            progress(t)
+
+    try:
+        res = sim.run(u0, rho0, t_end, t_start=t0, save_times=save_times[save_times >= t0], tracers=tr0,
+                      observers=[writer], progress=progress, extra_event_times=ckpt_times[ckpt_times > t0],
+                      on_event=on_checkpoint, restart=resume)
+    except SimulationError as exc:
+        writer.close(str(exc))
+        raise
+    except KeyboardInterrupt:
+        writer.close(f"interrupted after {writer.n} snapshots")
+        raise
+    except BaseException as exc:
+        writer.close(f"failed: {type(exc).__name__}: {exc}")
+        raise
+    writer.close("ok")
+    if os.path.exists(ckpt_file):
+        os.remove(ckpt_file)
+    t = writer.series("time")
+    top = writer.series("top") / setup.diameter
+    i = int(np.nanargmax(top)) if np.any(np.isfinite(top)) else 0
+    return RunOutcome(out, "ok", writer.n, float(t[-1]), steps0 + res.steps,
+                      wall0 + _time.perf_counter() - wall_start, float(top[i]), float(t[i]),
+                      resumed_from=t0 if resume else None, compile_time=compile_time)

@@ -1,0 +1,114 @@
+"""`bsrflow plot FILE.nc`: figures from an output netCDF file (synthetic files of the schema)."""
+
+import os
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from bsrflow.tools.plot_file import load_output, plot_file
+
+D = 0.022          # sphere diameter [m]
+KINDS = ("density", "tracers", "top_centre", "kinetic_energy")
+
+
+def synthetic(nt=40, nx=120, n_tracers=5, diameter=True):
+    """A column of 5 spheres thrown up by a floor tap: uniform density m/d below the column top
+    H(t), floor a half-sine bump, tracers at fixed fractions of the column."""
+    t = np.linspace(0.0, 0.4, nt)
+    x = (np.arange(nx) + 0.5) * (0.5 / nx)                     # cell centres [m], floor frame
+    floor = np.where((t > 0.1) & (t < 0.15), 0.0165 * np.sin(np.pi * (t - 0.1) / 0.05), 0.0)
+    H = 5 * D * (1 + 2.0 * np.clip(np.sin(np.pi * (t - 0.1) / 0.3), 0, None) * (t > 0.1))
+    line = 1200 * np.pi / 6 * D ** 3 / D
+    rho = np.where(x[None, :] < H[:, None], line * 5 * D / H[:, None], 0.0)
+    u = np.gradient(H, t)[:, None] * x[None, :] / H[:, None]
+    frac = (np.arange(n_tracers) + 0.5) / n_tracers
+    tracer = floor[:, None] + frac[None, :] * H[:, None]
+    ds = xr.Dataset(
+        {"rho": (("time", "x"), rho, {"units": "kg m-1", "long_name": "line density"}),
+         "u": (("time", "x"), u, {"units": "m s-1"}),
+         "tracer_height": (("time", "tracer"), tracer, {"units": "m"}),
+         "floor": ("time", floor, {"units": "m"}),
+         "top": ("time", tracer[:, -1], {"units": "m"}),
+         "mass_centre": ("time", floor + H / 2, {"units": "m"}),
+         "mass": ("time", np.full(nt, line * 5 * D), {"units": "kg"}),
+         "kinetic_energy": ("time", 0.5 * (rho * u ** 2).sum(axis=1) * (x[1] - x[0]), {"units": "J"})},
+        coords={"time": ("time", t, {"units": "s"}), "x": ("x", x, {"units": "m"})},
+        attrs={"config": "n_spheres = 5\n", "bsrflow_version": "0.1.0"})
+    if diameter:
+        ds.attrs["diameter"] = D
+    return ds
+
+
+def _check_pngs(paths, out, stem, kinds=KINDS):
+    assert [os.path.basename(p) for p in paths] == [f"{stem}_{k}.png" for k in kinds]
+    for p in paths:
+        assert os.path.dirname(p) == str(out)
+        with open(p, "rb") as fh:
+            assert fh.read(8) == b"\x89PNG\r\n\x1a\n"
+        assert os.path.getsize(p) > 5000
+
+
+def test_full_file_all_figures(tmp_path):
+    path = tmp_path / "run.nc"
+    synthetic().to_netcdf(path)
+    out = tmp_path / "figs"
+    paths = plot_file(str(path), str(out), log=None)
+    _check_pngs(paths, out, "run")
+
+
+def test_single_snapshot_and_no_diameter(tmp_path):
+    path = tmp_path / "one.nc"
+    synthetic(diameter=False).isel(time=[5]).to_netcdf(path)
+    paths = plot_file(str(path), str(tmp_path), log=None)
+    _check_pngs(paths, tmp_path, "one")
+
+
+def test_partially_written_file(tmp_path, capsys):
+    """A file still being written: the unlimited time axis holds 12 entries of which 9 have a time
+    and only 6 have density rows (the rest are netCDF fill values); no kinetic_energy yet."""
+    netCDF4 = pytest.importorskip("netCDF4")
+    full = synthetic(nt=12)
+    path = tmp_path / "partial.nc"
+    with netCDF4.Dataset(path, "w") as nc:
+        nc.createDimension("time", None)
+        nc.createDimension("x", full.sizes["x"])
+        nc.createDimension("tracer", full.sizes["tracer"])
+        nc.diameter = D
+        v = {}
+        for name in ("time", "x", "rho", "u", "tracer_height", "floor", "top", "mass_centre", "mass"):
+            v[name] = nc.createVariable(name, "f8", full[name].dims)
+        v["x"][:] = full["x"].values
+        v["time"][:9] = full["time"].values[:9]
+        for name in ("floor", "top", "mass_centre", "mass"):
+            v[name][:9] = full[name].values[:9]
+        v["tracer_height"][:9] = full["tracer_height"].values[:9]
+        v["rho"][:6] = full["rho"].values[:6]
+        v["u"][:6] = full["u"].values[:6]
+        v["time"][11] = np.float64(9.969209968386869e36)     # the fill value, written explicitly
+    ds, keep = load_output(str(path))
+    np.testing.assert_array_equal(keep, np.arange(9))
+    paths = plot_file(str(path), None, log=None)             # default: next to the file
+    _check_pngs(paths, tmp_path, "partial", KINDS[:3])
+    assert "kinetic_energy" in capsys.readouterr().err
+
+
+def test_plot_command(tmp_path, capsys):
+    from bsrflow.cli import main
+
+    path = tmp_path / "cmd.nc"
+    synthetic(nt=8).to_netcdf(path)
+    assert main(["plot", str(path), "--out", str(tmp_path / "o")]) == 0
+    printed = capsys.readouterr().out.split()
+    assert printed == [str(tmp_path / "o" / f"cmd_{k}.png") for k in KINDS]
+    assert all(os.path.exists(p) for p in printed)
+    # not a netCDF file, a missing file, a file without time: exit 2, one line
+    bad = tmp_path / "bad.nc"
+    bad.write_text("not netcdf")
+    for arg in (str(bad), str(tmp_path / "missing.nc")):
+        assert main(["plot", arg]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("bsrflow plot: error:")
+    xr.Dataset({"a": ("n", [1.0])}).to_netcdf(tmp_path / "notime.nc")
+    assert main(["plot", str(tmp_path / "notime.nc")]) == 2
+    assert "no 'time'" in capsys.readouterr().err
