@@ -246,3 +246,13 @@ def test_invalid_config_in_a_subprocess(tmp_path, text, field):
     lines = p.stderr.strip().splitlines()
     assert p.returncode == 2, p.stderr
     assert len(lines) == 1 and lines[0].startswith(f"bsrflow run: error: {field}: "), p.stderr
+
+
+def test_config_pickles_for_dask_workers():
+    import pickle
+
+    from bsrflow.io.config import Config
+    cfg = Config.default().with_overrides({"tap.a_over_d": 0.5})
+    back = pickle.loads(pickle.dumps(cfg))
+    assert back.to_dict() == cfg.to_dict()
+    assert back.tap.a_over_d == 0.5

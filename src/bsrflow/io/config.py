@@ -323,6 +323,8 @@ class Section(Mapping):
         object.__setattr__(self, "_values", values)
 
     def __getattr__(self, key):
+        if key.startswith("_"):          # private or dunder lookups (e.g. by pickle before
+            raise AttributeError(key)    # __init__ has run) must not recurse into _values
         try:
             return self._values[f"{self._table}.{key}"]
         except KeyError:

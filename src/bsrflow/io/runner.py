@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..numerics.solver import Simulation, SimulationError
+from ..numerics.solver import SimulationError
 from ..physics.column import initial_density
 from .checkpoint import Checkpoint, checkpoint_path, read_checkpoint, write_checkpoint
 from .config import Config, ConfigError
@@ -78,11 +78,8 @@ def column_simulation(config: Config):
     1e-3 m/d [kg/m]); a run of it without checkpoints equals ``run_bsr_column`` bit for bit
     (tested)."""
     setup = config.column_setup()
-    grid = setup.grid()
-    model = setup.model()
-    line = setup.particle_mass / setup.diameter
-    sim = Simulation(model, grid, config.scheme(), vacuum_density=1e-4 * line, top_tolerance=1e-3 * line)
-    return setup, grid, model, sim
+    sim = setup.simulation(config.scheme())
+    return setup, sim.grid, sim.model, sim
 
 
 def _config_difference(a: Config, b: Config) -> str:

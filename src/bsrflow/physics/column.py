@@ -179,6 +179,14 @@ class ColumnSetup:
     def tap_times(self) -> np.ndarray:
         return self.tap_start + self.tap_period * np.arange(self.n_taps)
 
+    def simulation(self, scheme: Scheme) -> Simulation:
+        """The solver of this column with its monitors: velocity extension below 1e-4 of the
+        stacked line density m/d, and a stop when more than 1e-3 m/d [kg/m] reaches the
+        kernel radius below the domain top."""
+        line = self.particle_mass / self.diameter
+        return Simulation(self.model(), self.grid(), scheme, vacuum_density=1e-4 * line,
+                          top_tolerance=1e-3 * line)
+
     def with_(self, **kw) -> "ColumnSetup":
         return replace(self, **kw)
 
@@ -227,11 +235,9 @@ def run_bsr_column(setup: ColumnSetup, scheme: Scheme | str | None = None, obser
         scheme = Scheme.preset(scheme)
     if tracer_integrator is not None:
         scheme = replace(scheme, tracer_integrator=tracer_integrator)
-    grid = setup.grid()
-    model = setup.model()
+    sim = setup.simulation(scheme)
+    grid = sim.grid
     rho0 = initial_density(setup, grid.x)
-    line = setup.particle_mass / setup.diameter
-    sim = Simulation(model, grid, scheme, vacuum_density=1e-4 * line, top_tolerance=1e-3 * line)
     res = sim.run(np.zeros(grid.n_cells), rho0, setup.t_end, save_every=setup.save_every,
                   tracers=setup.sphere_centres(), observers=observers, progress=progress)
     return column_run_from_result(setup, grid, res)

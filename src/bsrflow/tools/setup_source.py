@@ -191,25 +191,6 @@ class SetupSource:
             raise ValueError(f"{path}: not valid TOML: {exc}") from None
         return cls(path=path, values=_flatten_toml(data, path), text=text)
 
-    # pickling (dask ships the source to its workers): a Config object is sent as its plain
-    # nested dict (Config.to_dict) and rebuilt with Config.from_dict, which validates it again,
-    # so the Config class itself need not be picklable
-    def __getstate__(self):
-        state = dict(self.__dict__)
-        cfg = state.get("config")
-        if cfg is not None and callable(getattr(cfg, "to_dict", None)) and hasattr(type(cfg), "from_dict"):
-            state["config"] = ("__config_from_dict__", cfg.to_dict(), getattr(cfg, "source", None))
-        return state
-
-    def __setstate__(self, state):
-        cfg = state.get("config")
-        if isinstance(cfg, tuple) and cfg and cfg[0] == "__config_from_dict__":
-            mod = config_module()
-            if mod is None:
-                raise ImportError("bsrflow.io.config is needed to rebuild the configuration on this worker")
-            state = dict(state, config=mod.Config.from_dict(cfg[1], source=cfg[2]))
-        self.__dict__.update(state)
-
     @property
     def uses_config_module(self) -> bool:
         return self.config is not None
