@@ -58,8 +58,10 @@ class ReferenceScheme:
         rp = np.concatenate([np.broadcast_to(rl, (G,))[::-1], rho, np.broadcast_to(rh, (G,))])
         return up, rp
 
-    def rhs(self, u, rho, t):
-        """(du/dt, dρ/dt) of (4.13)-(4.14) with central differences and quadrature."""
+    def rhs(self, u, rho, t, rho_mat=None):
+        """(du/dt, dρ/dt) of (4.13)-(4.14) with central differences and quadrature.
+        ``rho_mat``: start-of-step density; with a vacuum threshold the hyperdiffusion's speed
+        max|u| is taken over its material cells (as in the compiled code)."""
         g, G, N, W = self.grid, self.G, self.grid.n_cells, self.W
         m = self.model
         up, rp = self.pad(u, rho, t)
@@ -80,7 +82,10 @@ class ReferenceScheme:
             dr[0] = -(rp[G + 1] * up[G + 1] - rp[G] * up[G - 1]) / (2 * g.dx)
         k4 = self.sim.scheme.hyperdiffusion
         if k4 > 0:
-            coef = k4 * (np.max(np.abs(u)) + np.sqrt(self.sim.kappa * np.max(rho))) / g.dx
+            thr = self.sim.vacuum_density
+            mat = (rho if rho_mat is None else rho_mat) >= thr if thr > 0 else np.ones(N, bool)
+            umax = np.max(np.abs(u[mat])) if mat.any() else 0.0
+            coef = k4 * (umax + np.sqrt(self.sim.kappa * np.max(rho))) / g.dx
             d4 = lambda a: a[G - 2:G + N - 2] - 4 * a[G - 1:G + N - 1] + 6 * a[G:G + N] - 4 * a[G + 1:G + N + 1] + a[G + 2:G + N + 2]
             r4 = rp.copy()
             if g.bc_lower == "floor":
@@ -105,7 +110,7 @@ class ReferenceScheme:
         for st in range(tb.stages):
             yu = u + dt * sum(tb.a[st, j] * ku[j] for j in range(st)) if st else u.copy()
             yr = rho + dt * sum(tb.a[st, j] * kr[j] for j in range(st)) if st else rho.copy()
-            du, dr = self.rhs(yu, yr, t + tb.c[st] * dt)
+            du, dr = self.rhs(yu, yr, t + tb.c[st] * dt, rho)
             ku.append(du)
             kr.append(dr)
         un = u + dt * sum(tb.b[j] * ku[j] for j in range(tb.stages))
