@@ -17,14 +17,25 @@ with b_k = w_k (R - |z_k|) the quadrature weight times the kernel's hat [m²].  
 * **Empty window** (ρ = 0 on all 2W+1 nodes): I_i = 0.
 * **Elastic part in O(1)**: for the trapezoidal rule b_k = β (W - k) is linear in k, so
   E_i = β (A_i - B_i) with triangular window sums A_i = Σ (W-k) ρ_{i+k}, B_i = Σ (W-k) ρ_{i-k}
-  that slide from cell to cell with two running box sums (re-computed from scratch every
-  ``ANCHOR`` cells, so round-off cannot accumulate).  Other rules: a vectorised O(W) loop.
+  that slide from cell to cell with two running box sums U_i = Σ_{k=2}^{W} ρ_{i+k},
+  L_i = Σ_{k=1}^{W-1} ρ_{i-k}:  A_{i+1} = A_i + (U_i - (W-1) ρ_{i+1}),
+  B_{i+1} = B_i + ((W-1) ρ_i - L_i),  re-computed from scratch every ``ANCHOR`` cells, so
+  round-off cannot accumulate.  Other rules: an O(W) loop per cell.
 * **Friction part in O(1) where u is monotone over the window**: strictly increasing u gives
   σ(u_{i±k} - u_i) = ±1 and V_i = E_i; strictly decreasing gives V_i = -E_i; constant u
   (e.g. the extended velocity above a column) gives V_i = 0.  Monotonicity is tracked with
-  run lengths of σ(u_{j+1} - u_j) at the window's leading edge, O(1) per cell.
+  the last index at which d_j = u_{j+1} - u_j breaks each property, O(1) per cell.
 * Elsewhere (the velocity is not monotone over the window: near extrema, at rest with
-  round-off chatter) V_i by a branch-free loop that the compiler vectorises.
+  round-off chatter) V_i = Σ_{k≠0} b_|k| ρ_{i+k} [u_{i+k} > u_i] - Σ_{k≠0} b_|k| ρ_{i+k} [u_{i+k} < u_i]
+  (exact ties give 0), computed for ``BLOCK`` consecutive cells at once: the cells are the
+  lanes of AVX vectors, the 2W+1 offsets the loop, so each offset costs per 4 cells two
+  unaligned vector loads (u_{i+k}, ρ_{i+k}), two compares, two masks and two fused
+  multiply-adds into register accumulators (``_friction_block``, written as LLVM vector code
+  because the compiler does not find this loop order by itself).
+
+The passes: classify every cell (empty / constant / increasing / decreasing / other), E_i for
+every cell, I_i = o λ f_c E_i with f = 0, 1, 1-ε, 1+ε, 1 for the classes, then on each run of
+cells of the last class I_i -= o λ ε V_i.
 
 The result equals the direct sum up to round-off (the terms are added in a different order):
 ``tests/test_fast_integral.py`` checks this on random, monotone, piecewise-constant and
