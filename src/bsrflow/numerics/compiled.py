@@ -83,9 +83,8 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
     def fill_ghosts(u, rho, t, up, rp, G, bcl, bch, xlo, dx, bp):
         """Copy (u, rho) into padded arrays with G ghost cells on each side (see grid.py)."""
         N = u.size
-        for j in range(N):
-            up[G + j] = u[j]
-            rp[G + j] = rho[j]
+        up[G:G + N] = u
+        rp[G:G + N] = rho
         for g in range(1, G + 1):
             lo = G - g            # padded index of cell -g
             hi = G + N - 1 + g    # padded index of cell N-1+g
@@ -212,13 +211,19 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
             j = i
             while j < N and rho[j] < thr:
                 j += 1
-            # vacuum run i..j-1, material at prev (< i, or -1) and j (or N: none)
+            # vacuum run i..j-1, material at prev (< i, or -1) and j (or N: none); cell m takes
+            # u[prev] where m - prev <= j - m, i.e. m <= (prev + j) // 2, else u[j]
             if prev >= 0 or j < N:
-                for m in range(i, j):
-                    if j >= N or (prev >= 0 and m - prev <= j - m):
-                        u[m] = u[prev]
-                    else:
-                        u[m] = u[j]
+                if j >= N:
+                    mid = j
+                elif prev < 0:
+                    mid = i
+                else:
+                    mid = min(j, (prev + j) // 2 + 1)
+                if mid > i:
+                    u[i:mid] = u[prev]
+                if j > mid:
+                    u[mid:j] = u[j]
             i = j
 
     @numba.njit(cache=False)
@@ -338,8 +343,10 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
         hi = N
         while t < t_end:
             if can_skip:
+                # ρ = 0 above the previous step's hi + 1 (the stages leave it at 0 there and the
+                # moving average spreads it by one cell), so the search starts there
                 z = 0
-                for i in range(N - 1, -1, -1):
+                for i in range(min(N, hi + 1) - 1, -1, -1):
                     if rho[i] != 0.0:
                         z = i + 1
                         break
@@ -377,9 +384,8 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
                 break
             # Runge-Kutta stages
             for st in range(s):
-                for i in range(N):
-                    yu[i] = u[i]
-                    yr[i] = rho[i]
+                yu[:] = u
+                yr[:] = rho
                 for j in range(st):
                     a = A[st, j]
                     if a != 0.0:
