@@ -132,8 +132,13 @@ def test_interrupted_then_resumed_equals_uninterrupted(tmp_path, start, ckpt, ex
     resumed = run_config(cfg, part, resume=True)
     assert resumed.resumed_from in cfg.checkpoint_times() and resumed.resumed_from >= 0.05
     assert resumed.steps == full.steps
-    da, _ = assert_same_variables(part, tmp_path / "full.nc")
+    assert resumed.rejected_steps == full.rejected_steps
+    adaptive = "rtol" in extra
+    assert full.adaptive == adaptive and ("rejected)" in full.summary()) == adaptive
+    da, db = assert_same_variables(part, tmp_path / "full.nc")
     assert da.attrs["status"] == "ok"
+    assert da.attrs["steps"] == db.attrs["steps"] == full.steps
+    assert da.attrs["rejected_steps"] == db.attrs["rejected_steps"] == full.rejected_steps
     assert not os.path.exists(str(part) + ".ckpt")
 
 

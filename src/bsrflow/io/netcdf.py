@@ -185,18 +185,22 @@ class NetCDFWriter:
         """A 1-D time series written so far: time, floor, top, mass_centre, mass, kinetic_energy."""
         return np.asarray(self._series[name], dtype=float)
 
-    def close(self, status: str | None = None):
-        """Set the ``status`` attribute (e.g. "ok" or a stop message) and close the file."""
+    def close(self, status: str | None = None, **extra_attrs):
+        """Set the ``status`` attribute (e.g. "ok" or a stop message) and any ``extra_attrs``
+        (global attributes such as ``steps``) and close the file."""
         if self.closed:
             return
         if status is not None:
             self.attrs["status"] = " ".join(str(status).split())
+        self.attrs.update(extra_attrs)
         if self._h5 is None:
             if self.n == 0:
                 self.closed = True
                 return
             self._publish()
         self._h5.attrs["status"] = self.attrs["status"]
+        for key, value in extra_attrs.items():
+            self._h5.attrs[key] = value
         self._h5.flush()
         self._h5.close()
         self._h5 = None

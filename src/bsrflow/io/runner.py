@@ -44,7 +44,8 @@ class RunOutcome:
     """What a finished run wrote.
 
     path : the netCDF file; status : "ok" or "complete already" (``--resume`` on a finished file);
-    n_snapshots : snapshots in the file; t_end [s]; steps : time steps from t = 0;
+    n_snapshots : snapshots in the file; t_end [s]; steps : accepted time steps from t = 0;
+    rejected_steps : rejected adaptive steps from t = 0 (``adaptive``: the scheme has error control);
     wall_time [s] : wall-clock time of the time loop over all segments (without compiling);
     compile_time [s] : compiling the time loop in this process; top_max_over_d : maximum lab-frame height of
     the top tracer in units of d, at ``t_top_max`` [s]; resumed_from [s] : checkpoint time or None.
@@ -60,6 +61,8 @@ class RunOutcome:
     t_top_max: float
     resumed_from: float | None = None
     compile_time: float = 0.0
+    rejected_steps: int = 0
+    adaptive: bool = False
 
     def summary(self) -> str:
         """One line: top max over d, steps, wall time, file."""
@@ -67,8 +70,9 @@ class RunOutcome:
         if self.status != "ok":
             return f"{self.status}: {self.n_snapshots} snapshots to t = {self.t_end:.6g} s; {top}; file {self.path}"
         resumed = f" (resumed from t = {self.resumed_from:.6g} s)" if self.resumed_from is not None else ""
+        rejected = f" ({self.rejected_steps} rejected)" if self.adaptive else ""
         return (f"{self.status}: {self.n_snapshots} snapshots to t = {self.t_end:.6g} s, {self.steps} steps"
-                f"{resumed}; {top}; wall time {self.wall_time:.3g} s (+ {self.compile_time:.3g} s "
+                f"{rejected}{resumed}; {top}; wall time {self.wall_time:.3g} s (+ {self.compile_time:.3g} s "
                 f"compiling); wrote {self.path}")
 
 
@@ -196,7 +200,7 @@ def run_config(config: Config, out, *, resume: bool = False, progress=None, log=
                       observers=[writer], progress=progress, extra_event_times=ckpt_times[ckpt_times > t0],
                       on_event=on_checkpoint, restart=resume)
     except SimulationError as exc:
-        writer.close(str(exc))
+        writer.close(str(exc), rejected_steps=np.int64(rejected0 + int(sim.counters[0]) - rejected_start))
         raise
     except KeyboardInterrupt:
         writer.close(f"interrupted after {writer.n} snapshots")
@@ -204,7 +208,8 @@ def run_config(config: Config, out, *, resume: bool = False, progress=None, log=
     except BaseException as exc:
         writer.close(f"failed: {type(exc).__name__}: {exc}")
         raise
-    writer.close("ok")
+    rejected = rejected0 + int(sim.counters[0]) - rejected_start
+    writer.close("ok", steps=np.int64(steps0 + res.steps), rejected_steps=np.int64(rejected))
     if os.path.exists(ckpt_file):
         os.remove(ckpt_file)
     t = writer.series("time")
@@ -212,4 +217,5 @@ def run_config(config: Config, out, *, resume: bool = False, progress=None, log=
     i = int(np.nanargmax(top)) if np.any(np.isfinite(top)) else 0
     return RunOutcome(out, "ok", writer.n, float(t[-1]), steps0 + res.steps,
                       wall0 + _time.perf_counter() - wall_start, float(top[i]), float(t[i]),
-                      resumed_from=t0 if resume else None, compile_time=compile_time)
+                      resumed_from=t0 if resume else None, compile_time=compile_time,
+                      rejected_steps=rejected, adaptive=sim.scheme.rtol is not None)
