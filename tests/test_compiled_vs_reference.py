@@ -35,13 +35,20 @@ def _relerr(a, b):
 
 @pytest.mark.parametrize("bcs", CASES)
 @pytest.mark.parametrize("stepper", ["euler", "heun", "kutta3", "rk4"])
-@pytest.mark.parametrize("filt, hyper, sel", [(False, 0.0, 0.0), (True, 0.0, 0.0), (False, 1 / 32, 0.0),
-                                              (False, 1 / 32, 0.02)])
-def test_step_matches_reference(bcs, stepper, filt, hyper, sel, rng):
+@pytest.mark.parametrize("filt, hyper, sel, k2", [(False, 0.0, 0.0, 0.0), (True, 0.0, 0.0, 0.0),
+                                                  (False, 1 / 32, 0.0, 0.0), (False, 1 / 32, 0.02, 0.0),
+                                                  (False, 1 / 32, 0.02, 0.5), (False, 0.0, 0.3, 1.0)])
+def test_step_matches_reference(bcs, stepper, filt, hyper, sel, k2, rng):
     grid = Grid1D(0.0, 1.0, 60, *bcs)                     # radius 0.1 m = 6 cells
     sim = Simulation(_model(bcs), grid, Scheme(stepper=stepper, filter=filt, dt=1e-3, hyperdiffusion=hyper,
-                                               selective_filter=sel))
+                                               selective_filter=sel, sensor_dissipation=k2))
     ref = ReferenceScheme(sim)
+    if k2 > 0 and sel == 0.3:
+        # a threshold that switches some faces on and leaves others off
+        u0 = rng.normal(0.0, 0.5, grid.n_cells)
+        up, rp = ref.pad(u0, rng.uniform(0.5, 5.0, grid.n_cells), 0.013)
+        on = ref._faces_on(up, rp, sel, 1.0)
+        assert 0 < on.sum() < on.size
     u = rng.normal(0.0, 0.5, grid.n_cells)
     rho = rng.uniform(0.5, 5.0, grid.n_cells)
     t0 = 0.013

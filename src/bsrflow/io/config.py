@@ -174,7 +174,7 @@ FIELDS: tuple[_Field, ...] = (
            "t_end)", "s", 0, None),
     # [numerics]
     _Field("numerics", "scheme", "str", "seed", "scheme preset: \"seed\" (Kutta RK3 + moving "
-           "average every step, CFL 0.5) or \"accurate\" (RK4, CFL 0.1, selective dissipation)",
+           "average every step, CFL 0.5) or \"accurate\" (RK3, CFL 0.1, sensor-switched dissipation)",
            choices=_SCHEMES),
     _Field("numerics", "points_per_diameter", "int", 10, "grid cells per sphere diameter (the "
            "interaction radius d must span at least 2 cells)", "", 2, 1000),

@@ -126,12 +126,28 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
                 rp[hi] = rr
 
     @numba.njit(cache=False)
-    def rhs(t, up, rp, G, N, xlo, dx, W, qz, qw, kp, grav, ep, mp, du, dr, bcl, hyper, kappa, rho_mat, thr):
+    def sensor_on(up, rp, ii, tau, speed):
+        """Smoothness sensor of the padded cell ii: s_ρ = |δ²ρ| / (ρ_{i-1} + 2ρ_i + ρ_{i+1}) and
+        s_u = |δ²u| / (|u_{i-1}| + 2|u_i| + |u_{i+1}| + 4 U), U = ``speed``; True when either
+        exceeds ``tau``.  Both are O(Δx²) on smooth fields and O(1) at jumps, vacuum edges and
+        grid-scale oscillations."""
+        dr = abs(rp[ii - 1] - 2.0 * rp[ii] + rp[ii + 1])
+        sr = rp[ii - 1] + 2.0 * rp[ii] + rp[ii + 1]
+        dv = abs(up[ii - 1] - 2.0 * up[ii] + up[ii + 1])
+        su = abs(up[ii - 1]) + 2.0 * abs(up[ii]) + abs(up[ii + 1]) + 4.0 * speed
+        return (sr > 0.0 and dr > tau * sr) or (su > 0.0 and dv > tau * su)
+
+    @numba.njit(cache=False)
+    def rhs(t, up, rp, G, N, xlo, dx, W, qz, qw, kp, grav, ep, mp, du, dr, bcl, hyper, kappa, rho_mat, thr,
+            sel2, sel_tau):
         """Semi-discrete right-hand side (4.13)-(4.14) at every cell from padded arrays.
 
-        ``rho_mat``, ``thr``: with thr > 0 the hyperdiffusion's speed max|u| is taken over the
-        material cells only (rho_mat[i] >= thr, rho_mat the density at the start of the step):
-        the velocity of vacuum cells is an extension with no physical meaning."""
+        ``hyper`` (κ4 > 0): fourth-difference dissipation -κ4 s/Δx δ⁴q.  ``sel2`` (κ2 > 0):
+        sensor-switched second-difference dissipation  +κ2 s/Δx δ²q  at the faces next to cells
+        whose smoothness sensor (:func:`sensor_on`) exceeds ``sel_tau``.  s = max|u| + sqrt(κ max ρ)
+        [m/s] for both; ``rho_mat``, ``thr``: with thr > 0 max|u| is taken over the material
+        cells only (rho_mat[i] >= thr, rho_mat the density at the start of the step): the velocity
+        of vacuum cells is an extension with no physical meaning."""
         frame = M(t, mp)[2]
         h = 0.5 / dx
         INTEGRAL(up, rp, G, N, W, qz, qw, kp, du)
@@ -151,10 +167,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
             # the mass flux through the floor uses the even image ρ_{-1} = ρ_0 (zero flux, exact
             # mass conservation); the point-reflected images serve the interaction integral only
             dr[0] = -(rp[G + 1] * up[G + 1] - rp[G] * up[G - 1]) * h
-        if hyper > 0.0:
-            # fourth-difference artificial dissipation  -κ4 s/Δx δ⁴q  with one speed s for the
-            # whole grid (max|u| + sqrt(κ max ρ)), so that it is a flux difference and conserves
-            # mass; at a floor the density uses even images (zero dissipative flux through it)
+        if hyper > 0.0 or sel2 > 0.0:
             umax = 0.0
             rmax = 0.0
             for i in range(N):
@@ -163,7 +176,35 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
                     umax = a
                 if rp[G + i] > rmax:
                     rmax = rp[G + i]
-            coef = hyper * (umax + math.sqrt(kappa * rmax)) / dx
+            speed = umax + math.sqrt(kappa * rmax)
+        if sel2 > 0.0:
+            # sensor-switched second-difference dissipation in flux form, F_f = κ2 s/Δx (q_f - q_{f-1})
+            # on the faces f (between cells f-1 and f) next to a flagged cell; zero mass flux
+            # through a floor.  Streaming over the faces: flags of cells f-1 and f, flux of face f.
+            coef2 = sel2 * speed / dx
+            on_prev = sensor_on(up, rp, G - 1, sel_tau, speed)
+            fu_prev = 0.0
+            fr_prev = 0.0
+            for f in range(N + 1):
+                on = sensor_on(up, rp, G + f, sel_tau, speed)
+                fu = 0.0
+                fr = 0.0
+                if on or on_prev:
+                    fu = coef2 * (up[G + f] - up[G + f - 1])
+                    fr = coef2 * (rp[G + f] - rp[G + f - 1])
+                    if bcl == 1 and f == 0:
+                        fr = 0.0
+                if f > 0:
+                    du[f - 1] += fu - fu_prev
+                    dr[f - 1] += fr - fr_prev
+                fu_prev = fu
+                fr_prev = fr
+                on_prev = on
+        if hyper > 0.0:
+            # fourth-difference artificial dissipation  -κ4 s/Δx δ⁴q  with one speed s for the
+            # whole grid (max|u| + sqrt(κ max ρ)), so that it is a flux difference and conserves
+            # mass; at a floor the density uses even images (zero dissipative flux through it)
+            coef = hyper * speed / dx
             for i in range(N):
                 ii = G + i
                 d4u = up[ii - 2] - 4.0 * up[ii - 1] + 6.0 * up[ii] - 4.0 * up[ii + 1] + up[ii + 2]
@@ -230,9 +271,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
     def selective_average(u, rho, up, rp, G, bcl, tau, speed):
         """The moving average applied only where a smoothness sensor asks for it.
 
-        Sensors at cell i: s_ρ = |δ²ρ| / (ρ_{i-1} + 2ρ_i + ρ_{i+1}) and
-        s_u = |δ²u| / (|u_{i-1}| + 2|u_i| + |u_{i+1}| + 4 U), U = max|u| + c.  Both are O(Δx²)
-        on smooth fields and O(1) at jumps, vacuum edges and grid-scale oscillations.  A face
+        Sensor (:func:`sensor_on`) with U = ``speed`` = max|u| + c.  A face
         i+1/2 is switched on when either neighbour has a sensor above ``tau``; the update is the
         (1/4, 1/2, 1/4) average in flux form q_i += (F_{i+1/2} - F_{i-1/2}), F = s (q_{i+1} - q_i)/4,
         so the density stays conservative and the average is the seed's where every face is on."""
@@ -242,12 +281,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
             ii = G + i
             if ii - 1 < 0 or ii + 1 >= up.size:
                 continue
-            dr = abs(rp[ii - 1] - 2.0 * rp[ii] + rp[ii + 1])
-            sr = rp[ii - 1] + 2.0 * rp[ii] + rp[ii + 1]
-            du = abs(up[ii - 1] - 2.0 * up[ii] + up[ii + 1])
-            su = abs(up[ii - 1]) + 2.0 * abs(up[ii]) + abs(up[ii + 1]) + 4.0 * speed
-            if (sr > 0.0 and dr > tau * sr) or (su > 0.0 and du > tau * su):
-                flag[i + 1] = True
+            flag[i + 1] = sensor_on(up, rp, ii, tau, speed)
         fu = np.zeros(N + 1)
         fr = np.zeros(N + 1)
         for f in range(N + 1):                       # face between cells f-1 and f
@@ -300,7 +334,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
     def advance(u, rho, t, t_end, dt_fixed, cfl, kappa, A, b, c, filt, bcl, bch, xlo, dx, W, qz, qw,
                 kp, grav, ep, mp, bp, dt_min, rho_max, max_steps, strain_limit, top_tol,
                 tracers, tracer_mode, vac_thr, hyper, positivity, sel_tau, bhat, rtol, atol_u, atol_r,
-                err_order, counters, skip_vacuum):
+                err_order, counters, skip_vacuum, sel2):
         """Advance (u, rho, tracers) in place from t to t_end.
 
         dt: ``dt_fixed`` if > 0, else cfl Δx / (max|u| + sqrt(κ max ρ)); the last step is
@@ -339,7 +373,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
         adaptive = rtol > 0.0
         dt_prop = 1e300
         can_skip = skip_vacuum and vac_thr > 0.0 and bch == 2
-        reach = 2 if hyper > 0.0 else 1
+        reach = 2 if (hyper > 0.0 or sel2 > 0.0) else 1
         hi = N
         while t < t_end:
             if can_skip:
@@ -401,7 +435,8 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
                             for j in range(st):
                                 xt[n] += dt * A[st, j] * vt[j, n]
                         vt[st, n] = interp(up, G, N, xlo, dx, xt[n])
-                rhs(ts, up, rp, G, hi, xlo, dx, W, qz, qw, kp, grav, ep, mp, ku[st], kr[st], bcl, hyper, kappa, rho, vac_thr)
+                rhs(ts, up, rp, G, hi, xlo, dx, W, qz, qw, kp, grav, ep, mp, ku[st], kr[st], bcl, hyper, kappa, rho, vac_thr,
+                    sel2, sel_tau)
             if adaptive:
                 # embedded error estimate  Δt Σ (b_j - b̂_j) k_j, scaled by atol + rtol |y|; with
                 # vac_thr > 0 the velocity error of vacuum cells (an extension) is not counted
@@ -467,7 +502,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
             if filt:
                 fill_ghosts(u, rho, t, up, rp, G, bcl, bch, xlo, dx, bp)
                 moving_average(u, rho, up, rp, G, bcl)
-            elif sel_tau > 0.0:
+            elif sel_tau > 0.0 and sel2 <= 0.0:
                 fill_ghosts(u, rho, t, up, rp, G, bcl, bch, xlo, dx, bp)
                 umax = 0.0
                 rmax = 0.0
@@ -513,5 +548,6 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
     core.extend_velocity = extend_velocity
     core.make_positive = make_positive
     core.selective_average = selective_average
+    core.sensor_on = sensor_on
     core.advance = advance
     return core

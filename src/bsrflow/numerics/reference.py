@@ -60,7 +60,7 @@ class ReferenceScheme:
 
     def rhs(self, u, rho, t, rho_mat=None):
         """(du/dt, dρ/dt) of (4.13)-(4.14) with central differences and quadrature.
-        ``rho_mat``: start-of-step density; with a vacuum threshold the hyperdiffusion's speed
+        ``rho_mat``: start-of-step density; with a vacuum threshold the dissipations' speed
         max|u| is taken over its material cells (as in the compiled code)."""
         g, G, N, W = self.grid, self.G, self.grid.n_cells, self.W
         m = self.model
@@ -81,11 +81,22 @@ class ReferenceScheme:
             # flux through the floor with the even image (see grid.py)
             dr[0] = -(rp[G + 1] * up[G + 1] - rp[G] * up[G - 1]) / (2 * g.dx)
         k4 = self.sim.scheme.hyperdiffusion
-        if k4 > 0:
+        k2 = self.sim.scheme.sensor_dissipation
+        if k4 > 0 or k2 > 0:
             thr = self.sim.vacuum_density
             mat = (rho if rho_mat is None else rho_mat) >= thr if thr > 0 else np.ones(N, bool)
             umax = np.max(np.abs(u[mat])) if mat.any() else 0.0
-            coef = k4 * (umax + np.sqrt(self.sim.kappa * np.max(rho))) / g.dx
+            speed = umax + np.sqrt(self.sim.kappa * np.max(rho))
+        if k2 > 0:
+            on = self._faces_on(up, rp, self.sim.scheme.selective_filter, speed)
+            fu = np.where(on, k2 * speed / g.dx * (up[G:G + N + 1] - up[G - 1:G + N]), 0.0)
+            fr = np.where(on, k2 * speed / g.dx * (rp[G:G + N + 1] - rp[G - 1:G + N]), 0.0)
+            if g.bc_lower == "floor":
+                fr[0] = 0.0
+            du = du + fu[1:] - fu[:-1]
+            dr = dr + fr[1:] - fr[:-1]
+        if k4 > 0:
+            coef = k4 * speed / g.dx
             d4 = lambda a: a[G - 2:G + N - 2] - 4 * a[G - 1:G + N - 1] + 6 * a[G:G + N] - 4 * a[G + 1:G + N + 1] + a[G + 2:G + N + 2]
             r4 = rp.copy()
             if g.bc_lower == "floor":
@@ -133,7 +144,7 @@ class ReferenceScheme:
                 un[vac] = un[np.where(dhi < dlo, hi, lo)]
         if self.sim.scheme.filter:
             un, rn = self.moving_average(un, rn, t + dt)
-        elif self.sim.scheme.selective_filter > 0:
+        elif self.sim.scheme.selective_filter > 0 and self.sim.scheme.sensor_dissipation == 0:
             un, rn = self.selective_average(un, rn, t + dt)
         return un, rn
 
@@ -143,6 +154,17 @@ class ReferenceScheme:
         up, rp = self.pad(u, rho, t)
         tau = self.sim.scheme.selective_filter
         speed = np.max(np.abs(u)) + np.sqrt(self.sim.kappa * np.max(rho))
+        on = self._faces_on(up, rp, tau, speed)
+        fu = np.where(on, 0.25 * (up[G:G + N + 1] - up[G - 1:G + N]), 0.0)
+        fr = np.where(on, 0.25 * (rp[G:G + N + 1] - rp[G - 1:G + N]), 0.0)
+        if self.grid.bc_lower == "floor":
+            fr[0] = 0.0
+        return u + fu[1:] - fu[:-1], rho + fr[1:] - fr[:-1]
+
+    def _faces_on(self, up, rp, tau, speed):
+        """Faces f = 0..N (between cells f-1 and f) next to a cell whose smoothness sensor
+        exceeds tau (``compiled.sensor_on``)."""
+        G, N = self.G, self.grid.n_cells
         c = slice(G - 1, G + N + 1)                          # cells -1..N
         l = slice(G - 2, G + N)
         r = slice(G, G + N + 2)
@@ -151,12 +173,7 @@ class ReferenceScheme:
         du = np.abs(up[l] - 2 * up[c] + up[r])
         su = np.abs(up[l]) + 2 * np.abs(up[c]) + np.abs(up[r]) + 4 * speed
         flag = ((sr > 0) & (dr > tau * sr)) | ((su > 0) & (du > tau * su))
-        on = flag[:-1] | flag[1:]                            # faces between cells f-1 and f, f = 0..N
-        fu = np.where(on, 0.25 * (up[G:G + N + 1] - up[G - 1:G + N]), 0.0)
-        fr = np.where(on, 0.25 * (rp[G:G + N + 1] - rp[G - 1:G + N]), 0.0)
-        if self.grid.bc_lower == "floor":
-            fr[0] = 0.0
-        return u + fu[1:] - fu[:-1], rho + fr[1:] - fr[:-1]
+        return flag[:-1] | flag[1:]
 
     def run_fixed(self, u, rho, t, dt, n_steps):
         """n_steps steps of size dt."""

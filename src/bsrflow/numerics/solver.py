@@ -46,8 +46,16 @@ class Scheme:
         <= 1 over u and ρ (atol = (atol_u [m/s], atol_ρ [kg/m])), else rejected and retried with a
         smaller step; the CFL bound still caps the step.  rtol None: off.  Rejected steps are
         counted (``SimulationResult.info['rejected_steps']``).
-    selective_filter : τ > 0 applies the moving average (when ``filter`` is off) only at faces
-        next to cells whose smoothness sensor exceeds τ (``compiled.selective_average``).
+    selective_filter : τ > 0: smoothness-sensor threshold (``compiled.sensor_on``).  With
+        ``sensor_dissipation`` = 0 the moving average is applied after every step (when
+        ``filter`` is off) only at the faces next to cells whose sensor exceeds τ
+        (``compiled.selective_average``).
+    sensor_dissipation : κ2 >= 0; with κ2 > 0 and τ > 0 the flagged faces get a second-difference
+        dissipation +κ2 (max|u| + c)/Δx δ²q inside both right-hand sides instead of the
+        post-step average: part of the semi-discrete system, so independent of Δt (the post-step
+        average is a diffusion Δx²/(4Δt) that grows as the step shrinks); O(Δx³) where the
+        sensor is off on smooth data; conservative (zero mass flux through a floor).  κ2 = 1/2
+        is the dissipation of the local Lax-Friedrichs (Rusanov) flux.
     """
 
     stepper: str = "kutta3"
@@ -59,6 +67,7 @@ class Scheme:
     hyperdiffusion: float = 0.0
     positivity: bool = False
     selective_filter: float = 0.0
+    sensor_dissipation: float = 0.0
     rtol: float | None = None
     atol: tuple = (1e-6, 1e-6)
     name: str = "custom"
@@ -75,6 +84,10 @@ class Scheme:
             raise ValueError(f"hyperdiffusion = {self.hyperdiffusion!r} is outside the valid range [0, 0.1]")
         if not (np.isfinite(self.selective_filter) and 0.0 <= self.selective_filter <= 1.0):
             raise ValueError(f"selective_filter = {self.selective_filter!r} is outside the valid range [0, 1]")
+        if not (np.isfinite(self.sensor_dissipation) and 0.0 <= self.sensor_dissipation <= 2.0):
+            raise ValueError(f"sensor_dissipation = {self.sensor_dissipation!r} is outside the valid range [0, 2]")
+        if self.sensor_dissipation > 0 and self.selective_filter <= 0:
+            raise ValueError("sensor_dissipation > 0 needs a sensor threshold selective_filter in (0, 1]")
         if self.rtol is not None:
             if not (np.isfinite(self.rtol) and 0 < self.rtol < 1):
                 raise ValueError(f"rtol = {self.rtol!r} is outside the valid range (0, 1)")
@@ -93,21 +106,24 @@ class Scheme:
         """Named schemes.
 
         'seed': Kutta's RK3 + moving average every step, trapezoid, ν = 0.5, Euler tracers (the
-        dissertation's choices).  'accurate': classical RK4 at ν = 0.1, no moving average,
-        fourth-difference dissipation κ4 = 1/32 inside the right-hand side (error O(Δx³),
-        independent of Δt), the moving average only where a smoothness sensor exceeds τ = 0.02,
-        the mass-conserving positivity fix after every step, RK tracers.  The small CFL number
-        is measured, not assumed: on the settling column the error is dominated by the time
+        dissertation's choices).  'accurate': Kutta's RK3 at ν = 0.1, no moving average;
+        fourth-difference dissipation κ4 = 1/32 and, at the faces a smoothness sensor flags
+        (τ = 0.02), second-difference dissipation κ2 = 1/4, both inside the right-hand side
+        (O(Δx³) on smooth data, independent of Δt); the mass-conserving positivity fix after
+        every step; RK tracers.  The choices are measured, not assumed (docs/model.md,
+        ``bench/bench_schemes.py``): on the settling column the error is dominated by the time
         step through the kernel's friction term σ(Δu) (a Coulomb-like switch, first order in
-        Δt whatever the stepper), and the seed cannot shorten its step because its moving
-        average adds a diffusion Δx²/(4Δt) that grows as Δt shrinks; the κ4 term does not
-        (docs/model.md, ``bench/bench_schemes.py``)."""
+        Δt whatever the stepper), so a short step pays; Kutta's RK3 has a smaller constant in
+        that error than classical RK4 (and 3/4 of its cost per step); any per-step smoothing
+        (the seed's moving average, or a post-step selective average) adds a diffusion
+        ~Δx²/(4Δt) that grows as Δt shrinks, while the κ2/κ4 terms do not; without the sensor
+        dissipation the tapped column breaks down at the floor after a tap at 20 ppd."""
         presets = {
             "seed": dict(stepper="kutta3", filter=True, quadrature="trapezoid", cfl=0.5,
                          tracer_integrator="euler"),
-            "accurate": dict(stepper="rk4", filter=False, quadrature="trapezoid", cfl=0.1,
+            "accurate": dict(stepper="kutta3", filter=False, quadrature="trapezoid", cfl=0.1,
                              tracer_integrator="rk", hyperdiffusion=1.0 / 32.0, positivity=True,
-                             selective_filter=0.02),
+                             selective_filter=0.02, sensor_dissipation=0.25),
         }
         if preset_name not in presets:
             raise ValueError(f"scheme = {preset_name!r} is not one of {sorted(presets)}")
@@ -261,7 +277,7 @@ class Simulation:
             int(max_steps or self.max_steps), self.strain_limit, self.top_tolerance, tr, mode,
             self.vacuum_density, float(s.hyperdiffusion), bool(s.positivity), float(s.selective_filter),
             self._bhat, float(s.rtol or 0.0), float(s.atol[0]), float(s.atol[1]), float(self._err_order),
-            self.counters, self.skip_vacuum)
+            self.counters, self.skip_vacuum, float(s.sensor_dissipation))
 
     def rhs(self, u, rho, t):
         """Semi-discrete right-hand side (du/dt, dρ/dt) at time t."""
@@ -278,7 +294,8 @@ class Simulation:
         self.core.rhs(float(t), up, rp, G, N, float(g.lower), float(g.dx), self.W, self.qz, self.qw,
                       self.model.kernel.params, float(self.model.gravity), self.model.external_params,
                       self.model.motion.params, du, dr, bcl, float(self.scheme.hyperdiffusion), float(self.kappa),
-                      np.ascontiguousarray(rho, float), float(self.vacuum_density))
+                      np.ascontiguousarray(rho, float), float(self.vacuum_density),
+                      float(self.scheme.sensor_dissipation), float(self.scheme.selective_filter))
         return du, dr
 
     # -- a whole run --------------------------------------------------------------------------
