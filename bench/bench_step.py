@@ -144,7 +144,8 @@ def profile(ppd, repeats):
         "integral_direct": lambda: direct(up, rp, G, N, W, sim.qz, sim.qw, kp, out),
         "rhs_with_fast_integral": lambda: c.rhs(t, up, rp, G, N, 0.0, g.dx, W, sim.qz, sim.qw, kp,
                                                 sim.model.gravity, sim.model.external_params,
-                                                sim.model.motion.params, du, dr, 1, 0.0, sim.kappa, r, sim.vacuum_density),
+                                                sim.model.motion.params, du, dr, 1, 0.0, sim.kappa, r, sim.vacuum_density,
+                                                0.0, 0.0),
         "extend_velocity": lambda: c.extend_velocity(u.copy(), r, sim.vacuum_density),
         "moving_average": lambda: c.moving_average(u.copy(), r.copy(), up, rp, G, 1),
     }
