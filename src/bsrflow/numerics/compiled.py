@@ -344,12 +344,12 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
 
         skip_vacuum: with a vacuum top and velocity extension (vac_thr > 0), the stages update
         only the cells below hi = z + 2 r s + 2 (z: one past the highest cell with ρ != 0 or
-        tracer, s stages, r = 1, or 2 with the five-point hyperdiffusion: the cells a stage's
-        stencil reaches).  Above, ρ stays exactly 0 during the step and the velocities there are
-        overwritten by the extension after it; the hyperdiffusion's speed and the adaptive error
+        tracer, s stages, r = 1, or 2 with the hyperdiffusion or the sensor dissipation: the
+        cells a stage's stencil reaches).  Above, ρ stays exactly 0 during the step and the velocities there are
+        overwritten by the extension after it; the dissipations' speed and the adaptive error
         norm of u use the material cells only (ρ >= vac_thr), so they are the same either way.
-        Tested to give the same result bit for bit through a tap (fixed, adaptive and
-        hyperdiffusive steps).  One caveat: the fast interaction integral chooses its summation
+        Tested to give the same result bit for bit through a tap (fixed and adaptive steps, with
+        both dissipations).  One caveat: the fast interaction integral chooses its summation
         path from the velocities in a cell's whole window, vacuum included; where the skipped
         and the computed stage velocities of vacuum cells would select different paths, the two
         results differ at round-off (the value is the same sum).
