@@ -157,6 +157,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
         ul = up[G - 1:G - 1 + N]
         ur = up[G + 1:G + 1 + N]
         rl = rp[G - 1:G - 1 + N]
+        rc = rp[G:G + N]
         rr = rp[G + 1:G + 1 + N]
         for i in range(N):
             ui = uc[i]
@@ -170,52 +171,67 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
         if hyper > 0.0 or sel2 > 0.0:
             umax = 0.0
             rmax = 0.0
-            for i in range(N):
-                a = abs(up[G + i])
-                if a > umax and (thr <= 0.0 or rho_mat[i] >= thr):
-                    umax = a
-                if rp[G + i] > rmax:
-                    rmax = rp[G + i]
+            every = thr <= 0.0
+            for i in range(N):                  # uc, rc: contiguous views; branch-free maxima
+                a = abs(uc[i]) if (every or rho_mat[i] >= thr) else 0.0
+                umax = max(umax, a)
+                rmax = max(rmax, rc[i])
             speed = umax + math.sqrt(kappa * rmax)
         if sel2 > 0.0:
             # sensor-switched second-difference dissipation in flux form, F_f = κ2 s/Δx (q_f - q_{f-1})
             # on the faces f (between cells f-1 and f) next to a flagged cell; zero mass flux
-            # through a floor.  Streaming over the faces: flags of cells f-1 and f, flux of face f.
+            # through a floor.  Branch-free passes (flags of cells -1..N, face fluxes, update)
+            # so that the loops vectorise; the flag is that of :func:`sensor_on`.
             coef2 = sel2 * speed / dx
-            on_prev = sensor_on(up, rp, G - 1, sel_tau, speed)
-            fu_prev = 0.0
-            fr_prev = 0.0
-            for f in range(N + 1):
-                on = sensor_on(up, rp, G + f, sel_tau, speed)
-                fu = 0.0
-                fr = 0.0
-                if on or on_prev:
-                    fu = coef2 * (up[G + f] - up[G + f - 1])
-                    fr = coef2 * (rp[G + f] - rp[G + f - 1])
-                    if bcl == 1 and f == 0:
-                        fr = 0.0
-                if f > 0:
-                    du[f - 1] += fu - fu_prev
-                    dr[f - 1] += fr - fr_prev
-                fu_prev = fu
-                fr_prev = fr
-                on_prev = on
+            # contiguous views (no index wrap-around checks): cells k-1 = -2..N-1, k = -1..N,
+            # k+1 = 0..N+1 for the flags of cells -1..N
+            rm = rp[G - 2:G + N]
+            r0 = rp[G - 1:G + N + 1]
+            r1 = rp[G:G + N + 2]
+            um = up[G - 2:G + N]
+            u0 = up[G - 1:G + N + 1]
+            u1 = up[G:G + N + 2]
+            flag = np.empty(N + 2, dtype=np.bool_)
+            for k in range(N + 2):
+                d2r = abs(rm[k] - 2.0 * r0[k] + r1[k])
+                sr = rm[k] + 2.0 * r0[k] + r1[k]
+                d2u = abs(um[k] - 2.0 * u0[k] + u1[k])
+                su = abs(um[k]) + 2.0 * abs(u0[k]) + abs(u1[k]) + 4.0 * speed
+                flag[k] = ((sr > 0.0) & (d2r > sel_tau * sr)) | ((su > 0.0) & (d2u > sel_tau * su))
+            fu = np.empty(N + 1)
+            fr = np.empty(N + 1)
+            for f in range(N + 1):              # face f between cells f-1 (= u0[f]) and f (= u1[f])
+                on = 1.0 if (flag[f] | flag[f + 1]) else 0.0
+                fu[f] = on * (coef2 * (u1[f] - u0[f]))
+                fr[f] = on * (coef2 * (r1[f] - r0[f]))
+            if bcl == 1:
+                fr[0] = 0.0
+            for i in range(N):
+                du[i] += fu[i + 1] - fu[i]
+                dr[i] += fr[i + 1] - fr[i]
         if hyper > 0.0:
             # fourth-difference artificial dissipation  -κ4 s/Δx δ⁴q  with one speed s for the
             # whole grid (max|u| + sqrt(κ max ρ)), so that it is a flux difference and conserves
             # mass; at a floor the density uses even images (zero dissipative flux through it)
             coef = hyper * speed / dx
-            for i in range(N):
-                ii = G + i
-                d4u = up[ii - 2] - 4.0 * up[ii - 1] + 6.0 * up[ii] - 4.0 * up[ii + 1] + up[ii + 2]
-                if bcl == 1 and i == 0:      # even images ρ_{-1} = ρ_0, ρ_{-2} = ρ_1
+            m = min(N, 2)
+            keep = np.empty(2)
+            for i in range(m):
+                keep[i] = dr[i]
+            a2, a1, a0, b1, b2 = up[G - 2:G - 2 + N], up[G - 1:G - 1 + N], up[G:G + N], up[G + 1:G + 1 + N], up[G + 2:G + 2 + N]
+            p2, p1, p0, q1, q2 = rp[G - 2:G - 2 + N], rp[G - 1:G - 1 + N], rp[G:G + N], rp[G + 1:G + 1 + N], rp[G + 2:G + 2 + N]
+            for i in range(N):                  # contiguous views, branch-free: vectorises
+                du[i] -= coef * (a2[i] - 4.0 * a1[i] + 6.0 * a0[i] - 4.0 * b1[i] + b2[i])
+                dr[i] -= coef * (p2[i] - 4.0 * p1[i] + 6.0 * p0[i] - 4.0 * q1[i] + q2[i])
+            if bcl == 1:
+                # at a floor the density's dissipative flux uses even images: cell 0 with
+                # ρ_{-1} = ρ_0, ρ_{-2} = ρ_1, cell 1 with ρ_{-1} = ρ_0
+                if m > 0:
                     d4r = rp[G + 1] - 4.0 * rp[G] + 6.0 * rp[G] - 4.0 * rp[G + 1] + rp[G + 2]
-                elif bcl == 1 and i == 1:    # ρ_{-1} = ρ_0
+                    dr[0] = keep[0] - coef * d4r
+                if m > 1:
                     d4r = rp[G] - 4.0 * rp[G] + 6.0 * rp[G + 1] - 4.0 * rp[G + 2] + rp[G + 3]
-                else:
-                    d4r = rp[ii - 2] - 4.0 * rp[ii - 1] + 6.0 * rp[ii] - 4.0 * rp[ii + 1] + rp[ii + 2]
-                du[i] -= coef * d4u
-                dr[i] -= coef * d4r
+                    dr[1] = keep[1] - coef * d4r
 
     @numba.njit(cache=False)
     def moving_average(u, rho, up, rp, G, bcl):
