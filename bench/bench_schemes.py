@@ -27,7 +27,7 @@ printed), so the benchmark uses coarse-grained quantities:
 * ``mass_centre``: max over the saved times (every 5 ms) of |h - h_ref| / d, h the mass-centre
   height.
 
-Cost: wall time of the run (compiled, one core, compilation excluded; median of 3).  For each
+Cost: wall time of the run (compiled, one core, compilation excluded; median of 5).  For each
 metric the cost of each preset at a common error (the larger of the two presets' smallest
 errors) is interpolated log-log over the grids, and the ratio seed/accurate printed: > 1 means
 'accurate' is cheaper.  Rows of the adaptive variant of 'accurate' (error control instead of a
@@ -116,7 +116,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     numba.set_num_threads(1)
     ppds = PPDS[:3] if args.quick else PPDS
-    repeats = 1 if args.quick else 3
+    repeats = 1 if args.quick else 5
     refs, ref_ppd = {}, {}
     out = {"t_end_s": T, "reference_ppd": REF_PPD, "references": {}, "presets": {}, "equal_error": {}}
     for name, (make, ppd) in REFERENCES.items():
