@@ -126,16 +126,17 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
                 rp[hi] = rr
 
     @numba.njit(cache=False)
-    def sensor_on(up, rp, ii, tau, speed):
-        """Smoothness sensor of the padded cell ii: s_ρ = |δ²ρ| / (ρ_{i-1} + 2ρ_i + ρ_{i+1}) and
+    def sensor_on(rm, r0, r1, um, u0, u1, tau, speed):
+        """Smoothness sensor of a cell from its and its neighbours' values (ρ_{i-1}, ρ_i, ρ_{i+1},
+        u_{i-1}, u_i, u_{i+1}): s_ρ = |δ²ρ| / (ρ_{i-1} + 2ρ_i + ρ_{i+1}) and
         s_u = |δ²u| / (|u_{i-1}| + 2|u_i| + |u_{i+1}| + 4 U), U = ``speed``; True when either
         exceeds ``tau``.  Both are O(Δx²) on smooth fields and O(1) at jumps, vacuum edges and
-        grid-scale oscillations."""
-        dr = abs(rp[ii - 1] - 2.0 * rp[ii] + rp[ii + 1])
-        sr = rp[ii - 1] + 2.0 * rp[ii] + rp[ii + 1]
-        dv = abs(up[ii - 1] - 2.0 * up[ii] + up[ii + 1])
-        su = abs(up[ii - 1]) + 2.0 * abs(up[ii]) + abs(up[ii + 1]) + 4.0 * speed
-        return (sr > 0.0 and dr > tau * sr) or (su > 0.0 and dv > tau * su)
+        grid-scale oscillations.  Branch-free (inlined into vectorised loops)."""
+        d2r = abs(rm - 2.0 * r0 + r1)
+        sr = rm + 2.0 * r0 + r1
+        d2u = abs(um - 2.0 * u0 + u1)
+        su = abs(um) + 2.0 * abs(u0) + abs(u1) + 4.0 * speed
+        return ((sr > 0.0) & (d2r > tau * sr)) | ((su > 0.0) & (d2u > tau * su))
 
     @numba.njit(cache=False)
     def rhs(t, up, rp, G, N, xlo, dx, W, qz, qw, kp, grav, ep, mp, du, dr, bcl, hyper, kappa, rho_mat, thr,
@@ -181,7 +182,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
             # sensor-switched second-difference dissipation in flux form, F_f = κ2 s/Δx (q_f - q_{f-1})
             # on the faces f (between cells f-1 and f) next to a flagged cell; zero mass flux
             # through a floor.  Branch-free passes (flags of cells -1..N, face fluxes, update)
-            # so that the loops vectorise; the flag is that of :func:`sensor_on`.
+            # so that the loops vectorise.
             coef2 = sel2 * speed / dx
             # contiguous views (no index wrap-around checks): cells k-1 = -2..N-1, k = -1..N,
             # k+1 = 0..N+1 for the flags of cells -1..N
@@ -193,11 +194,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
             u1 = up[G:G + N + 2]
             flag = np.empty(N + 2, dtype=np.bool_)
             for k in range(N + 2):
-                d2r = abs(rm[k] - 2.0 * r0[k] + r1[k])
-                sr = rm[k] + 2.0 * r0[k] + r1[k]
-                d2u = abs(um[k] - 2.0 * u0[k] + u1[k])
-                su = abs(um[k]) + 2.0 * abs(u0[k]) + abs(u1[k]) + 4.0 * speed
-                flag[k] = ((sr > 0.0) & (d2r > sel_tau * sr)) | ((su > 0.0) & (d2u > sel_tau * su))
+                flag[k] = sensor_on(rm[k], r0[k], r1[k], um[k], u0[k], u1[k], sel_tau, speed)
             fu = np.empty(N + 1)
             fr = np.empty(N + 1)
             for f in range(N + 1):              # face f between cells f-1 (= u0[f]) and f (= u1[f])
@@ -297,7 +294,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
             ii = G + i
             if ii - 1 < 0 or ii + 1 >= up.size:
                 continue
-            flag[i + 1] = sensor_on(up, rp, ii, tau, speed)
+            flag[i + 1] = sensor_on(rp[ii - 1], rp[ii], rp[ii + 1], up[ii - 1], up[ii], up[ii + 1], tau, speed)
         fu = np.zeros(N + 1)
         fr = np.zeros(N + 1)
         for f in range(N + 1):                       # face between cells f-1 and f
