@@ -88,11 +88,8 @@ class ReferenceScheme:
             umax = np.max(np.abs(u[mat])) if mat.any() else 0.0
             speed = umax + np.sqrt(self.sim.kappa * np.max(rho))
         if k2 > 0:
-            on = self._faces_on(up, rp, self.sim.scheme.selective_filter, speed)
-            fu = np.where(on, k2 * speed / g.dx * (up[G:G + N + 1] - up[G - 1:G + N]), 0.0)
-            fr = np.where(on, k2 * speed / g.dx * (rp[G:G + N + 1] - rp[G - 1:G + N]), 0.0)
-            if g.bc_lower == "floor":
-                fr[0] = 0.0
+            fu, fr = self._face_fluxes(up, rp, self._faces_on(up, rp, self.sim.scheme.selective_filter, speed),
+                                       k2 * speed / g.dx)
             du = du + fu[1:] - fu[:-1]
             dr = dr + fr[1:] - fr[:-1]
         if k4 > 0:
@@ -150,16 +147,20 @@ class ReferenceScheme:
 
     def selective_average(self, u, rho, t):
         """Moving average in flux form on the faces next to cells flagged by the sensors."""
-        G, N = self.G, self.grid.n_cells
         up, rp = self.pad(u, rho, t)
         tau = self.sim.scheme.selective_filter
         speed = np.max(np.abs(u)) + np.sqrt(self.sim.kappa * np.max(rho))
-        on = self._faces_on(up, rp, tau, speed)
-        fu = np.where(on, 0.25 * (up[G:G + N + 1] - up[G - 1:G + N]), 0.0)
-        fr = np.where(on, 0.25 * (rp[G:G + N + 1] - rp[G - 1:G + N]), 0.0)
+        fu, fr = self._face_fluxes(up, rp, self._faces_on(up, rp, tau, speed), 0.25)
+        return u + fu[1:] - fu[:-1], rho + fr[1:] - fr[:-1]
+
+    def _face_fluxes(self, up, rp, on, coef):
+        """coef (q_f - q_{f-1}) on the faces that are on, 0 elsewhere; no mass flux through a floor."""
+        G, N = self.G, self.grid.n_cells
+        fu = np.where(on, coef * (up[G:G + N + 1] - up[G - 1:G + N]), 0.0)
+        fr = np.where(on, coef * (rp[G:G + N + 1] - rp[G - 1:G + N]), 0.0)
         if self.grid.bc_lower == "floor":
             fr[0] = 0.0
-        return u + fu[1:] - fu[:-1], rho + fr[1:] - fr[:-1]
+        return fu, fr
 
     def _faces_on(self, up, rp, tau, speed):
         """Faces f = 0..N (between cells f-1 and f) next to a cell whose smoothness sensor
