@@ -24,8 +24,14 @@ smooth_space[_filter]    ρ_t + (ρu)_x = 0, u_t + u u_x = ∫ρΘ with the elas
 smooth_time[_filter]     the same problem on a fixed grid, refined in the time step.
 *_accurate               the same with the 'accurate' preset (no moving average; fourth-difference
                          and sensor-switched second-difference dissipation inside the
-                         right-hand side).  Its time reference is the same semi-discrete
+                         right-hand side; stepper 'auto', which is RK4 for these kernels
+                         without friction).  Its time reference is the same semi-discrete
                          system (dissipations included) stepped by RK4 with a small step.
+smooth_time_accurate_kutta3  the same with Kutta's RK3, the stepper 'auto' picks for a kernel
+                         with friction (the tapped column's).
+smooth_time_friction[_rk4]   smooth_time_accurate with the friction switch on (ε = 0.3): 'auto'
+                         (then RK3) and RK4; both are first order in Δt (the reason 'auto'
+                         keeps RK3 for such kernels).
 """
 
 from __future__ import annotations
@@ -67,8 +73,9 @@ def pairwise_orders(h, errors):
     return [float(np.log(e[k] / e[k + 1]) / np.log(h[k] / h[k + 1])) for k in range(len(e) - 1)]
 
 
-def _case(name, kind, scheme, resolutions, h, errors, **extra):
-    d = {"name": name, "kind": kind, "stepper": scheme.stepper, "filter": bool(scheme.filter),
+def _case(name, kind, scheme, resolutions, h, errors, stepper=None, **extra):
+    """One case's record; ``stepper``: the stepper the runs used (the scheme's 'auto' resolved)."""
+    d = {"name": name, "kind": kind, "stepper": stepper or scheme.stepper, "filter": bool(scheme.filter),
          "scheme": scheme.name, "resolutions": [int(r) for r in resolutions], "h": [float(x) for x in h],
          "errors": [float(e) for e in errors], "observed_order": observed_order(h, errors),
          "pairwise_orders": pairwise_orders(h, errors)}
@@ -83,7 +90,8 @@ def case_example_a(scheme: Scheme, resolutions=(16, 32, 64, 128), t_end=0.9, nam
     for n in resolutions:
         grid = Grid1D(0.0, 1.0, n, "dirichlet", "dirichlet")
         u0, r0 = example_a_solution(grid.x, 0.0)
-        res = Simulation(model, grid, scheme).run(u0, r0, t_end)
+        sim = Simulation(model, grid, scheme)
+        res = sim.run(u0, r0, t_end)
         ue, re = example_a_solution(grid.x, t_end)
         errors.append(relative_error(res.u[-1], res.rho[-1], ue, re))
         h.append(grid.dx)
@@ -97,7 +105,7 @@ def case_example_a(scheme: Scheme, resolutions=(16, 32, 64, 128), t_end=0.9, nam
     except SimulationError as exc:
         blow = exc.time
         msg = str(exc)
-    return _case(name, "exact", scheme, resolutions, h, errors, t_end=t_end,
+    return _case(name, "exact", scheme, resolutions, h, errors, stepper=sim.stepper, t_end=t_end,
                  blowup_detected_at=blow, blowup_message=msg)
 
 
@@ -108,11 +116,12 @@ def case_example_b(scheme: Scheme, resolutions=(32, 64, 128, 256), t_end=2.0, na
     for n in resolutions:
         grid = Grid1D(0.0, 1.0, n, "periodic", "periodic")
         u0, r0 = example_b_solution(grid.x, 0.0)
-        res = Simulation(model, grid, scheme).run(u0, r0, t_end)
+        sim = Simulation(model, grid, scheme)
+        res = sim.run(u0, r0, t_end)
         ue, re = example_b_solution(grid.x, t_end)
         errors.append(relative_error(res.u[-1], res.rho[-1], ue, re))
         h.append(grid.dx)
-    return _case(name, "exact", scheme, resolutions, h, errors, t_end=t_end)
+    return _case(name, "exact", scheme, resolutions, h, errors, stepper=sim.stepper, t_end=t_end)
 
 
 # ---- smooth periodic problem with the interaction kernel ------------------------------------
@@ -123,8 +132,10 @@ sqrt(λR³ρ/3) = 1 m/s at ρ = 1 kg/m), ρ0 = 1 + 0.2 sin 2πx kg/m, u0 = 0.2 c
 to t = 0.15 s (well before the first shock)."""
 
 
-def smooth_model() -> BSRModel:
-    return BSRModel(kernel=walton_braun(SMOOTH["strength"], 0.0, SMOOTH["radius"]))
+def smooth_model(dissipation: float = 0.0) -> BSRModel:
+    """The smooth problem's model; ``dissipation`` ε > 0 switches on the kernel's friction
+    σ(z Δu) (the ``smooth_time_friction*`` cases)."""
+    return BSRModel(kernel=walton_braun(SMOOTH["strength"], dissipation, SMOOTH["radius"]))
 
 
 def smooth_initial(x):
@@ -163,16 +174,19 @@ def case_smooth_space(scheme: Scheme, resolutions=(64, 128, 256, 512), name="smo
     for n in resolutions:
         grid = Grid1D(0.0, L, n, "periodic", "periodic")
         u0, r0 = smooth_initial(grid.x)
-        res = Simulation(model, grid, scheme).run(u0, r0, SMOOTH["t_end"])
+        sim = Simulation(model, grid, scheme)
+        res = sim.run(u0, r0, SMOOTH["t_end"])
         errors.append(relative_error(res.u[-1], res.rho[-1], fourier_resample(ref.u[-1], n),
                                      fourier_resample(ref.rho[-1], n)))
         h.append(grid.dx)
-    return _case(name, "space", scheme, resolutions, h, errors, reference_cells=ref_n, cfl=scheme.cfl,
+    return _case(name, "space", scheme, resolutions, h, errors, stepper=sim.stepper, reference_cells=ref_n,
+                 cfl=scheme.cfl,
                  t_end=SMOOTH["t_end"])
 
 
-def case_smooth_time(scheme_kw: dict, steps=(64, 128, 256, 512), n_cells=256, name="smooth_time"):
-    model = smooth_model()
+def case_smooth_time(scheme_kw: dict, steps=(64, 128, 256, 512), n_cells=256, name="smooth_time",
+                     dissipation=0.0):
+    model = smooth_model(dissipation)
     T = SMOOTH["t_end"]
     grid = Grid1D(0.0, SMOOTH["length"], n_cells, "periodic", "periodic")
     u0, r0 = smooth_initial(grid.x)
@@ -185,11 +199,13 @@ def case_smooth_time(scheme_kw: dict, steps=(64, 128, 256, 512), n_cells=256, na
     scheme = None
     for n in steps:
         scheme = Scheme(dt=T / n, **scheme_kw)
-        res = Simulation(model, grid, scheme).run(u0, r0, T)
+        sim = Simulation(model, grid, scheme)
+        res = sim.run(u0, r0, T)
         errors.append(relative_error(res.u[-1], res.rho[-1], ref.u[-1], ref.rho[-1]))
         h.append(T / n)
     c_max = 1.0 * np.sqrt(1.0 + SMOOTH["rho_amp"]) + SMOOTH["u_amp"]
-    return _case(name, "time", scheme, steps, h, errors, n_cells=n_cells, reference_steps=ref_steps,
+    return _case(name, "time", scheme, steps, h, errors, stepper=sim.stepper, n_cells=n_cells,
+                 reference_steps=ref_steps, kernel_dissipation=dissipation,
                  largest_cfl=float(c_max * T / steps[0] / grid.dx), t_end=T)
 
 
@@ -210,15 +226,22 @@ def run_cases(which=None, log=print):
                                                         name="smooth_time_filter")),
     ]
     acc = Scheme.preset("accurate")
+    acc_kw = dict(filter=False, hyperdiffusion=acc.hyperdiffusion, selective_filter=acc.selective_filter,
+                  sensor_dissipation=acc.sensor_dissipation, positivity=acc.positivity, name="accurate")
     jobs += [
         ("example_a_accurate", lambda: case_example_a(acc, name="example_a_accurate")),
         ("example_b_accurate", lambda: case_example_b(acc, name="example_b_accurate")),
         ("smooth_space_accurate", lambda: case_smooth_space(acc, name="smooth_space_accurate")),
-        ("smooth_time_accurate", lambda: case_smooth_time(
-            dict(stepper=acc.stepper, filter=False, hyperdiffusion=acc.hyperdiffusion,
-                 selective_filter=acc.selective_filter, sensor_dissipation=acc.sensor_dissipation,
-                 positivity=acc.positivity, name="accurate"),
-            name="smooth_time_accurate")),
+        ("smooth_time_accurate", lambda: case_smooth_time(dict(acc_kw, stepper=acc.stepper),
+                                                          name="smooth_time_accurate")),
+        # the same with the stepper the preset uses on the tapped column (kernel with friction)
+        ("smooth_time_accurate_kutta3", lambda: case_smooth_time(dict(acc_kw, stepper="kutta3"),
+                                                                 name="smooth_time_accurate_kutta3")),
+        # the friction switch on (ε = 0.3): every explicit stepper drops to first order in Δt
+        ("smooth_time_friction", lambda: case_smooth_time(dict(acc_kw, stepper=acc.stepper), dissipation=0.3,
+                                                          name="smooth_time_friction")),
+        ("smooth_time_friction_rk4", lambda: case_smooth_time(dict(acc_kw, stepper="rk4"), dissipation=0.3,
+                                                              name="smooth_time_friction_rk4")),
     ]
     jobs += _extra_jobs()
     out = []
@@ -249,14 +272,15 @@ def _extra_jobs():
 
 
 def format_table(cases) -> str:
-    head = f"{'case':24s} {'kind':5s} {'stepper':8s} {'filter':6s} {'resolutions':>22s}  {'errors':>40s}  order"
+    wn = max([24] + [len(c["name"]) for c in cases])
+    head = f"{'case':{wn}s} {'kind':5s} {'stepper':8s} {'filter':6s} {'resolutions':>22s}  {'errors':>40s}  order"
     lines = [head, "-" * len(head)]
     for c in cases:
         res = ",".join(str(r) for r in c["resolutions"])
         errs = " ".join(f"{e:.2e}" for e in c["errors"])
         order = c["observed_order"]
         o = "  n/a" if order is None or not np.isfinite(order) else f"{order:5.2f}"
-        lines.append(f"{c['name']:24s} {c['kind']:5s} {c['stepper']:8s} {str(c['filter']):6s} {res:>22s}  "
+        lines.append(f"{c['name']:{wn}s} {c['kind']:5s} {c['stepper']:8s} {str(c['filter']):6s} {res:>22s}  "
                      f"{errs:>40s}  {o}")
     return "\n".join(lines)
 
