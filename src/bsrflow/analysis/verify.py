@@ -24,14 +24,11 @@ smooth_space[_filter]    ρ_t + (ρu)_x = 0, u_t + u u_x = ∫ρΘ with the elas
 smooth_time[_filter]     the same problem on a fixed grid, refined in the time step.
 *_accurate               the same with the 'accurate' preset (no moving average; fourth-difference
                          and sensor-switched second-difference dissipation inside the
-                         right-hand side; stepper 'auto', which is RK4 for these kernels
-                         without friction).  Its time reference is the same semi-discrete
+                         right-hand side).  Its time reference is the same semi-discrete
                          system (dissipations included) stepped by RK4 with a small step.
-smooth_time_accurate_kutta3  the same with Kutta's RK3, the stepper 'auto' picks for a kernel
-                         with friction (the tapped column's).
-smooth_time_friction[_rk4]   smooth_time_accurate with the friction switch on (ε = 0.3): 'auto'
-                         (then RK3) and RK4; both are first order in Δt (the reason 'auto'
-                         keeps RK3 for such kernels).
+smooth_time_accurate_rk4 smooth_time_accurate with classical RK4 in place of the preset's RK3.
+smooth_time_friction[_rk4]   smooth_time_accurate (RK3; RK4) with the kernel's friction switch
+                         on (ε = 0.3): both are first order in Δt.
 """
 
 from __future__ import annotations
@@ -73,9 +70,8 @@ def pairwise_orders(h, errors):
     return [float(np.log(e[k] / e[k + 1]) / np.log(h[k] / h[k + 1])) for k in range(len(e) - 1)]
 
 
-def _case(name, kind, scheme, resolutions, h, errors, stepper=None, **extra):
-    """One case's record; ``stepper``: the stepper the runs used (the scheme's 'auto' resolved)."""
-    d = {"name": name, "kind": kind, "stepper": stepper or scheme.stepper, "filter": bool(scheme.filter),
+def _case(name, kind, scheme, resolutions, h, errors, **extra):
+    d = {"name": name, "kind": kind, "stepper": scheme.stepper, "filter": bool(scheme.filter),
          "scheme": scheme.name, "resolutions": [int(r) for r in resolutions], "h": [float(x) for x in h],
          "errors": [float(e) for e in errors], "observed_order": observed_order(h, errors),
          "pairwise_orders": pairwise_orders(h, errors)}
@@ -90,8 +86,7 @@ def case_example_a(scheme: Scheme, resolutions=(16, 32, 64, 128), t_end=0.9, nam
     for n in resolutions:
         grid = Grid1D(0.0, 1.0, n, "dirichlet", "dirichlet")
         u0, r0 = example_a_solution(grid.x, 0.0)
-        sim = Simulation(model, grid, scheme)
-        res = sim.run(u0, r0, t_end)
+        res = Simulation(model, grid, scheme).run(u0, r0, t_end)
         ue, re = example_a_solution(grid.x, t_end)
         errors.append(relative_error(res.u[-1], res.rho[-1], ue, re))
         h.append(grid.dx)
@@ -105,7 +100,7 @@ def case_example_a(scheme: Scheme, resolutions=(16, 32, 64, 128), t_end=0.9, nam
     except SimulationError as exc:
         blow = exc.time
         msg = str(exc)
-    return _case(name, "exact", scheme, resolutions, h, errors, stepper=sim.stepper, t_end=t_end,
+    return _case(name, "exact", scheme, resolutions, h, errors, t_end=t_end,
                  blowup_detected_at=blow, blowup_message=msg)
 
 
@@ -116,12 +111,11 @@ def case_example_b(scheme: Scheme, resolutions=(32, 64, 128, 256), t_end=2.0, na
     for n in resolutions:
         grid = Grid1D(0.0, 1.0, n, "periodic", "periodic")
         u0, r0 = example_b_solution(grid.x, 0.0)
-        sim = Simulation(model, grid, scheme)
-        res = sim.run(u0, r0, t_end)
+        res = Simulation(model, grid, scheme).run(u0, r0, t_end)
         ue, re = example_b_solution(grid.x, t_end)
         errors.append(relative_error(res.u[-1], res.rho[-1], ue, re))
         h.append(grid.dx)
-    return _case(name, "exact", scheme, resolutions, h, errors, stepper=sim.stepper, t_end=t_end)
+    return _case(name, "exact", scheme, resolutions, h, errors, t_end=t_end)
 
 
 # ---- smooth periodic problem with the interaction kernel ------------------------------------
@@ -174,13 +168,11 @@ def case_smooth_space(scheme: Scheme, resolutions=(64, 128, 256, 512), name="smo
     for n in resolutions:
         grid = Grid1D(0.0, L, n, "periodic", "periodic")
         u0, r0 = smooth_initial(grid.x)
-        sim = Simulation(model, grid, scheme)
-        res = sim.run(u0, r0, SMOOTH["t_end"])
+        res = Simulation(model, grid, scheme).run(u0, r0, SMOOTH["t_end"])
         errors.append(relative_error(res.u[-1], res.rho[-1], fourier_resample(ref.u[-1], n),
                                      fourier_resample(ref.rho[-1], n)))
         h.append(grid.dx)
-    return _case(name, "space", scheme, resolutions, h, errors, stepper=sim.stepper, reference_cells=ref_n,
-                 cfl=scheme.cfl,
+    return _case(name, "space", scheme, resolutions, h, errors, reference_cells=ref_n, cfl=scheme.cfl,
                  t_end=SMOOTH["t_end"])
 
 
@@ -191,7 +183,8 @@ def case_smooth_time(scheme_kw: dict, steps=(64, 128, 256, 512), n_cells=256, na
     grid = Grid1D(0.0, SMOOTH["length"], n_cells, "periodic", "periodic")
     u0, r0 = smooth_initial(grid.x)
     ref_steps = 8 * steps[-1]
-    same_system = {k: scheme_kw[k] for k in ("hyperdiffusion", "selective_filter", "sensor_dissipation")
+    same_system = {k: scheme_kw[k] for k in ("hyperdiffusion", "selective_filter", "sensor_dissipation",
+                                             "positivity")
                    if k in scheme_kw}
     ref = Simulation(model, grid, Scheme(stepper="rk4", filter=False, dt=T / ref_steps,
                                          **same_system)).run(u0, r0, T)
@@ -199,13 +192,12 @@ def case_smooth_time(scheme_kw: dict, steps=(64, 128, 256, 512), n_cells=256, na
     scheme = None
     for n in steps:
         scheme = Scheme(dt=T / n, **scheme_kw)
-        sim = Simulation(model, grid, scheme)
-        res = sim.run(u0, r0, T)
+        res = Simulation(model, grid, scheme).run(u0, r0, T)
         errors.append(relative_error(res.u[-1], res.rho[-1], ref.u[-1], ref.rho[-1]))
         h.append(T / n)
     c_max = 1.0 * np.sqrt(1.0 + SMOOTH["rho_amp"]) + SMOOTH["u_amp"]
-    return _case(name, "time", scheme, steps, h, errors, stepper=sim.stepper, n_cells=n_cells,
-                 reference_steps=ref_steps, kernel_dissipation=dissipation,
+    return _case(name, "time", scheme, steps, h, errors, n_cells=n_cells, reference_steps=ref_steps,
+                 kernel_dissipation=dissipation,
                  largest_cfl=float(c_max * T / steps[0] / grid.dx), t_end=T)
 
 
@@ -226,20 +218,19 @@ def run_cases(which=None, log=print):
                                                         name="smooth_time_filter")),
     ]
     acc = Scheme.preset("accurate")
-    acc_kw = dict(filter=False, hyperdiffusion=acc.hyperdiffusion, selective_filter=acc.selective_filter,
-                  sensor_dissipation=acc.sensor_dissipation, positivity=acc.positivity, name="accurate")
+    acc_kw = dict(stepper=acc.stepper, filter=False, hyperdiffusion=acc.hyperdiffusion,
+                  selective_filter=acc.selective_filter, sensor_dissipation=acc.sensor_dissipation,
+                  positivity=acc.positivity, name="accurate")
     jobs += [
         ("example_a_accurate", lambda: case_example_a(acc, name="example_a_accurate")),
         ("example_b_accurate", lambda: case_example_b(acc, name="example_b_accurate")),
         ("smooth_space_accurate", lambda: case_smooth_space(acc, name="smooth_space_accurate")),
-        ("smooth_time_accurate", lambda: case_smooth_time(dict(acc_kw, stepper=acc.stepper),
-                                                          name="smooth_time_accurate")),
-        # the same with the stepper the preset uses on the tapped column (kernel with friction)
-        ("smooth_time_accurate_kutta3", lambda: case_smooth_time(dict(acc_kw, stepper="kutta3"),
-                                                                 name="smooth_time_accurate_kutta3")),
-        # the friction switch on (ε = 0.3): every explicit stepper drops to first order in Δt
-        ("smooth_time_friction", lambda: case_smooth_time(dict(acc_kw, stepper=acc.stepper), dissipation=0.3,
-                                                          name="smooth_time_friction")),
+        ("smooth_time_accurate", lambda: case_smooth_time(acc_kw, name="smooth_time_accurate")),
+        # the same with classical RK4 in place of the preset's RK3
+        ("smooth_time_accurate_rk4", lambda: case_smooth_time(dict(acc_kw, stepper="rk4"),
+                                                              name="smooth_time_accurate_rk4")),
+        # the kernel's friction switch on (ε = 0.3): both steppers drop to first order in Δt
+        ("smooth_time_friction", lambda: case_smooth_time(acc_kw, dissipation=0.3, name="smooth_time_friction")),
         ("smooth_time_friction_rk4", lambda: case_smooth_time(dict(acc_kw, stepper="rk4"), dissipation=0.3,
                                                               name="smooth_time_friction_rk4")),
     ]

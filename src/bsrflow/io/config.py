@@ -70,10 +70,9 @@ differences in every Runge-Kutta stage; ``bsrflow stability``, README "Stability
 (stepper, moving average after every step).  0: unstable at every ν.  ``bs32`` has the stability
 polynomial of every 3-stage 3rd-order method, so its limits are those of ``kutta3``."""
 
-# for the stability limit only; 'auto' is kutta3 or rk4, and kutta3's limit is the smaller
-_STEPPER_ALIASES = {"rk3": "kutta3", "bs32": "kutta3", "auto": "kutta3"}
-_STEPPERS = ("euler", "heun", "kutta3", "rk3", "rk4", "bs32", "auto")
-_EMBEDDED = ("heun", "kutta3", "rk3", "bs32", "auto")     # 'auto' with rtol is kutta3
+_STEPPER_ALIASES = {"rk3": "kutta3", "bs32": "kutta3"}   # for the stability limit only
+_STEPPERS = ("euler", "heun", "kutta3", "rk3", "rk4", "bs32")
+_EMBEDDED = ("heun", "kutta3", "rk3", "bs32")
 _SCHEMES = ("seed", "accurate")
 _MAX_SNAPSHOTS = 1_000_000
 _MAX_CHECKPOINTS = 100_000
@@ -175,17 +174,16 @@ FIELDS: tuple[_Field, ...] = (
            "t_end)", "s", 0, None),
     # [numerics]
     _Field("numerics", "scheme", "str", "seed", "scheme preset: \"seed\" (Kutta RK3 + moving "
-           "average every step, CFL 0.5) or \"accurate\" (stepper auto: RK3 with friction, RK4 without; "
-           "CFL 0.1, sensor-switched dissipation)",
+           "average every step, CFL 0.5) or \"accurate\" (RK3, CFL 0.1, sensor-switched dissipation)",
            choices=_SCHEMES),
     _Field("numerics", "points_per_diameter", "int", 10, "grid cells per sphere diameter (the "
            "interaction radius d must span at least 2 cells)", "", 2, 1000),
     _Field("numerics", "cfl", "float", None, "Courant number override (default: the preset's); "
            "at most the chosen stepper's stability limit", "", 0, 4, lo_open=True),
     _Field("numerics", "stepper", "str", None, "Runge-Kutta stepper override (default: the "
-           "preset's; auto: rk4 for a kernel smooth in the velocities, else kutta3)", choices=_STEPPERS),
+           "preset's)", choices=_STEPPERS),
     _Field("numerics", "rtol", "float", None, "relative tolerance for adaptive time stepping "
-           "(needs a stepper with an embedded pair: heun, kutta3, bs32, auto = kutta3; default: off)", "", 0, 1,
+           "(needs a stepper with an embedded pair: heun, kutta3, bs32; default: off)", "", 0, 1,
            lo_open=True, hi_open=True),
     _Field("numerics", "atol", "pair", None, "absolute tolerances [u in m/s, rho in kg/m] of adaptive "
            "stepping (default [1e-6, 1e-6]; only with rtol)", "", 0, 1e3, lo_open=True),
@@ -491,7 +489,7 @@ class Config:
                               cfl, rng)
         if v["numerics.rtol"] is not None and stepper not in _EMBEDDED:
             raise ConfigError("numerics.rtol", f"{v['numerics.rtol']!r}: adaptive stepping needs a stepper "
-                              f'with an embedded pair (heun, kutta3, bs32, auto), but the stepper is "{stepper}"; '
+                              f'with an embedded pair (heun, kutta3, bs32), but the stepper is "{stepper}"; '
                               'set numerics.stepper = "bs32" or remove rtol', v["numerics.rtol"])
         if v["numerics.atol"] is not None and v["numerics.rtol"] is None:
             raise ConfigError("numerics.atol", f"{_toml_value(v['numerics.atol'])} given without numerics.rtol; "

@@ -20,8 +20,7 @@ kinetic_energy (time)     J                   kinetic energy sum(rho u^2/2 dx) (
 ========================  ==================  ============================================
 
 ``time`` is unlimited.  Global attributes: ``bsrflow_version``, ``config`` (the full TOML text),
-``scenario`` = "tapped_column", ``scheme``, ``stepper`` (the one used: a preset's 'auto'
-resolved), ``diameter`` [m], ``status`` ("running" while the run
+``scenario`` = "tapped_column", ``scheme``, ``diameter`` [m], ``status`` ("running" while the run
 goes, then "ok" or the message of the monitor that stopped it), ``created`` (ISO 8601, UTC).
 Lab-frame heights are measured from the floor at rest.
 

@@ -173,8 +173,7 @@ def run_config(config: Config, out, *, resume: bool = False, progress=None, log=
     else:
         if os.path.exists(ckpt_file):
             os.remove(ckpt_file)                       # stale: belongs to an earlier run
-        attrs = {"config": config.to_toml(), "scheme": sim.scheme.name, "stepper": sim.stepper,
-                 "diameter": float(setup.diameter)}
+        attrs = {"config": config.to_toml(), "scheme": sim.scheme.name, "diameter": float(setup.diameter)}
         writer = NetCDFWriter(out, grid.x, grid.dx, n_tr, floor, attrs, expected_snapshots=save_times.size)
         u0, rho0, tr0 = np.zeros(grid.n_cells), initial_density(setup, grid.x), setup.sphere_centres()
 

@@ -25,7 +25,7 @@ class ReferenceScheme:
         self.W = sim.W
         self.G = max(self.W, 2)
         self.qz, self.qw = quadrature_weights(self.W, self.grid.dx, sim.scheme.quadrature)
-        self.tableau = get_stepper(sim.stepper)
+        self.tableau = get_stepper(sim.scheme.stepper)
 
     def pad(self, u, rho, t):
         """Padded copies of (u, ρ) with G ghost cells each side (boundary rules of grid.py)."""

@@ -21,22 +21,16 @@ from ..physics.model import BSRModel, jit_user
 from .compiled import STATUS, direct_integral, make_core
 from .grid import Grid1D
 from .quadrature import QUADRATURES, quadrature_weights
-from .steppers import check_stepper, get_stepper, resolve_stepper
+from .steppers import get_stepper
 
 __all__ = ["Scheme", "Simulation", "SimulationResult", "SimulationError"]
-
-EMBEDDED_PAIRS = ("heun", "kutta3", "rk3", "bs32")
-"""Steppers with an embedded lower-order solution (adaptive stepping)."""
 
 
 @dataclass
 class Scheme:
     """Numerical choices.
 
-    stepper : 'euler', 'heun', 'kutta3' (the seed's RK3, (4.17)-(4.24)), 'rk4', 'bs32', or
-        'auto': RK4 when the kernel is smooth in the velocities and the steps are fixed, Kutta's
-        RK3 otherwise (:func:`bsrflow.numerics.steppers.resolve_stepper`; the stepper a run
-        uses is ``Simulation.stepper``).
+    stepper : 'euler', 'heun', 'kutta3' (the seed's RK3, (4.17)-(4.24)), 'rk4'.
     filter : apply the moving average (1/4, 1/2, 1/4) to u and ρ after every step.
     quadrature : 'trapezoid' or 'boole' (see numerics.quadrature).
     cfl : Courant number ν: Δt = ν Δx / (max|u| + c), c = sqrt(κ max ρ) the kernel's sound speed.
@@ -79,7 +73,7 @@ class Scheme:
     name: str = "custom"
 
     def __post_init__(self):
-        check_stepper(self.stepper)
+        get_stepper(self.stepper)
         if self.quadrature not in QUADRATURES:
             raise ValueError(f"quadrature = {self.quadrature!r} is not one of {QUADRATURES}")
         if not (np.isfinite(self.cfl) and 0 < self.cfl <= 4):
@@ -97,9 +91,9 @@ class Scheme:
         if self.rtol is not None:
             if not (np.isfinite(self.rtol) and 0 < self.rtol < 1):
                 raise ValueError(f"rtol = {self.rtol!r} is outside the valid range (0, 1)")
-            if resolve_stepper(self.stepper, False, adaptive=True) not in EMBEDDED_PAIRS:
+            if get_stepper(self.stepper).b_embedded is None:
                 raise ValueError(f"rtol given but stepper = {self.stepper!r} has no embedded pair; "
-                                 "use one of 'heun', 'kutta3', 'bs32', 'auto'")
+                                 "use one of 'heun', 'kutta3', 'bs32'")
             if self.dt is not None:
                 raise ValueError("rtol (adaptive stepping) and a fixed dt cannot both be given")
         if len(self.atol) != 2 or not all(np.isfinite(a) and a > 0 for a in self.atol):
@@ -123,14 +117,11 @@ class Scheme:
         that error than classical RK4 (and 3/4 of its cost per step); any per-step smoothing
         (the seed's moving average, or a post-step selective average) adds a diffusion
         ~Δx²/(4Δt) that grows as Δt shrinks, while the κ2/κ4 terms do not; without the sensor
-        dissipation the tapped column breaks down at the floor after a tap at 20 ppd.  Its
-        stepper is 'auto': the RK3 above for kernels with the friction switch (the tapped
-        column), classical RK4 when the kernel is smooth in the velocities (ε = 0), where the
-        fourth order pays (``resolve_stepper``)."""
+        dissipation the tapped column breaks down at the floor after a tap at 20 ppd."""
         presets = {
             "seed": dict(stepper="kutta3", filter=True, quadrature="trapezoid", cfl=0.5,
                          tracer_integrator="euler"),
-            "accurate": dict(stepper="auto", filter=False, quadrature="trapezoid", cfl=0.1,
+            "accurate": dict(stepper="kutta3", filter=False, quadrature="trapezoid", cfl=0.1,
                              tracer_integrator="rk", hyperdiffusion=1.0 / 32.0, positivity=True,
                              selective_filter=0.02, sensor_dissipation=0.25),
         }
@@ -243,10 +234,7 @@ class Simulation:
                              "for a periodic grid")
         self.W = W
         self.qz, self.qw = quadrature_weights(W, grid.dx, self.scheme.quadrature)
-        self.stepper = resolve_stepper(self.scheme.stepper, model.kernel.is_smooth_in_velocity(),
-                                       adaptive=self.scheme.rtol is not None)
-        """The stepper this run uses (the scheme's, with 'auto' resolved for this model)."""
-        self.tableau = get_stepper(self.stepper)
+        self.tableau = get_stepper(self.scheme.stepper)
         tb = self.tableau
         self._bhat = tb.b_embedded if tb.b_embedded is not None else tb.b.copy()
         self._err_order = (tb.embedded_order or tb.order) + 1

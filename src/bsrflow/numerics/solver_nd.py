@@ -51,7 +51,7 @@ from .grid import Grid1D
 from .grid_nd import GridND, ball_quadrature
 from .quadrature import quadrature_weights
 from .solver import Scheme, Simulation, SimulationError, save_schedule
-from .steppers import get_stepper, resolve_stepper
+from .steppers import get_stepper
 
 __all__ = ["SimulationND", "ResultND", "ReferenceND", "induced_kernel_1d", "embedding_error",
            "verify_cases", "to_internal", "from_internal", "BSRModelND", "KernelND", "walton_braun_nd"]
@@ -185,9 +185,7 @@ class SimulationND:
         PZ = grid.shape3[2] + 2 * self.G[2]
         self.dA = np.ascontiguousarray((self.ho[:, 0] * PY + self.ho[:, 1]) * PZ + self.ho[:, 2])
         self.dB = np.ascontiguousarray((-self.ho[:, 0] * PY - self.ho[:, 1]) * PZ + self.ho[:, 2])
-        self.stepper = resolve_stepper(self.scheme.stepper, model.kernel.is_smooth_in_velocity(),
-                                       adaptive=self.scheme.rtol is not None)
-        self.tableau = get_stepper(self.stepper)
+        self.tableau = get_stepper(self.scheme.stepper)
         self.kappa = self.stiffness_moment()
         self.rho_max = float(rho_max)
         self.dt_min = float(dt_min)

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Tableau", "STEPPERS", "AUTO", "get_stepper", "check_stepper", "resolve_stepper"]
+__all__ = ["Tableau", "STEPPERS", "get_stepper"]
 
 
 @dataclass(frozen=True)
@@ -69,41 +69,9 @@ STEPPERS: dict[str, Tableau] = {
 STEPPERS["rk3"] = STEPPERS["kutta3"]
 
 
-AUTO = "auto"
-"""Stepper name resolved per model by :func:`resolve_stepper`."""
-
-
 def get_stepper(name: str) -> Tableau:
-    """Look up a stepper by name: euler, heun, kutta3 (alias rk3), rk4, bs32 ('auto' must be
-    resolved first, :func:`resolve_stepper`)."""
+    """Look up a stepper by name: euler, heun, kutta3 (alias rk3), rk4, bs32."""
     try:
         return STEPPERS[name]
     except KeyError:
-        if name == AUTO:
-            raise ValueError("stepper = 'auto' depends on the model; resolve it with "
-                             "resolve_stepper(name, smooth_in_velocity, adaptive) first") from None
-        raise ValueError(f"stepper = {name!r} is not one of {sorted(STEPPERS) + [AUTO]}") from None
-
-
-def check_stepper(name: str) -> None:
-    """Raise ValueError unless ``name`` is a stepper of :data:`STEPPERS` or 'auto'."""
-    if name != AUTO:
-        get_stepper(name)
-
-
-def resolve_stepper(name: str, smooth_in_velocity: bool, adaptive: bool = False) -> str:
-    """The stepper a run uses.  Names other than 'auto' are returned unchanged.
-
-    'auto' is classical RK4 when the kernel Θ is a smooth function of the velocities (e.g.
-    Walton–Braun with ε = 0, or no kernel) and the steps are fixed, and Kutta's RK3 otherwise
-    (a kernel with the friction switch σ(z Δu), or adaptive steps, which need RK3's embedded
-    pair).  Why, measured (docs/model.md, "The accurate preset"): on a smooth right-hand side
-    RK4 is fourth order (observed 3.97 on ``smooth_time_accurate``) against RK3's third (2.98);
-    with the friction switch every explicit Runge–Kutta method is first order in Δt (observed
-    1.0 for RK3 and 1.1 for RK4 on the same problem with ε = 0.3), and on the tapped column RK3
-    reaches a given mass-centre error at less cost than RK4 (``bench/bench_schemes.py``).
-    """
-    check_stepper(name)
-    if name != AUTO:
-        return name
-    return "rk4" if (smooth_in_velocity and not adaptive) else "kutta3"
+        raise ValueError(f"stepper = {name!r} is not one of {sorted(STEPPERS)}") from None

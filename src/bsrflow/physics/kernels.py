@@ -62,10 +62,6 @@ class Kernel:
         :func:`bsrflow.numerics.compiled.make_direct_integral`'s result that computes the same
         sum with less work (e.g. :mod:`bsrflow.numerics.fast_integral` for Walton–Braun); the
         solver uses it unless asked for the direct sum.
-    smooth_in_velocity : True if Θ is a smooth function of (u_here, u_there) (no switch such as
-        σ(z Δu)), or a function of ``params`` that says whether it is (Walton–Braun: ε = 0).
-        Only the stepper 'auto' uses it (:func:`bsrflow.numerics.steppers.resolve_stepper`);
-        default False (a user kernel is assumed to have a switch unless it says otherwise).
     """
 
     fn: object
@@ -76,7 +72,6 @@ class Kernel:
     param_units: tuple = ()
     compiled: object = field(default=None, repr=False)
     fast_integral: object = field(default=None, repr=False)
-    smooth_in_velocity: object = field(default=False, repr=False)
 
     def __post_init__(self):
         self.params = np.ascontiguousarray(np.atleast_1d(np.asarray(self.params, dtype=np.float64)))
@@ -89,11 +84,6 @@ class Kernel:
         """Evaluate Θ with NumPy (arrays broadcast)."""
         return self.fn(np.asarray(z, float), np.asarray(u_here, float), np.asarray(u_there, float),
                        self.params)
-
-    def is_smooth_in_velocity(self) -> bool:
-        """Whether Θ is smooth in the velocities for the current ``params`` (see the class)."""
-        s = self.smooth_in_velocity
-        return bool(s(self.params) if callable(s) else s)
 
     def stiffness_moment(self) -> float:
         """κ = max over relative motions of |∫_{-R}^{R} z Θ(z, ·) dz| [m³ s⁻² kg⁻¹].
@@ -174,13 +164,7 @@ def walton_braun(strength: float, dissipation: float, radius: float, seed_sign: 
     return Kernel(_walton_braun, [strength, dissipation, radius, 1.0 if seed_sign else -1.0], radius,
                   name="walton_braun" + ("_seed_sign" if seed_sign else ""),
                   param_names=("strength", "dissipation", "radius", "orientation"),
-                  param_units=("kg-1 s-2", "1", "m", "1"), fast_integral=walton_braun_integral,
-                  smooth_in_velocity=_no_friction)
-
-
-def _no_friction(p) -> bool:
-    """Walton–Braun Θ is smooth in the velocities when its friction switch is off (ε = p[1] = 0)."""
-    return p[1] == 0.0
+                  param_units=("kg-1 s-2", "1", "m", "1"), fast_integral=walton_braun_integral)
 
 
 def walton_braun_from_contact(stiffness: float, particle_mass: float, m0: float, dissipation: float,
@@ -197,4 +181,4 @@ def walton_braun_from_contact(stiffness: float, particle_mass: float, m0: float,
 
 def zero_kernel() -> Kernel:
     """No interaction (radius 0): the model reduces to pressureless gas dynamics."""
-    return Kernel(_zero, [0.0], 0.0, name="zero", smooth_in_velocity=True)
+    return Kernel(_zero, [0.0], 0.0, name="zero")

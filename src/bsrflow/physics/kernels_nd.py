@@ -70,8 +70,6 @@ class KernelND:
     params : float parameters p (runtime values: changing them does not recompile).
     radius : R [m], the interaction range (one particle diameter).
     name, param_names, param_units : documentation, copied into output attributes.
-    smooth_in_velocity : as for :class:`bsrflow.physics.kernels.Kernel` (bool or a function of
-        ``params``; used by the stepper 'auto'; default False).
     """
 
     fn: object
@@ -81,7 +79,6 @@ class KernelND:
     param_names: tuple = ()
     param_units: tuple = ()
     compiled: object = field(default=None, repr=False)
-    smooth_in_velocity: object = field(default=False, repr=False)
 
     def __post_init__(self):
         self.params = np.ascontiguousarray(np.atleast_1d(np.asarray(self.params, dtype=np.float64)))
@@ -94,10 +91,6 @@ class KernelND:
         """Evaluate Θ with NumPy; z, a, b are 3-sequences of arrays (broadcast)."""
         f = lambda v: tuple(np.asarray(c, float) for c in v)  # noqa: E731
         return self.fn(f(z), f(a), f(b), self.params)
-
-    def is_smooth_in_velocity(self) -> bool:
-        s = self.smooth_in_velocity
-        return bool(s(self.params) if callable(s) else s)
 
     def to_dict(self) -> dict:
         return {"name": self.name, "radius": self.radius, "params": self.params.tolist(),
@@ -125,12 +118,7 @@ def walton_braun_nd(strength: float, dissipation: float, radius: float) -> Kerne
         raise ValueError(f"dissipation = {dissipation!r} is outside the valid range [0, 1)")
     return KernelND(_walton_braun_nd, [strength, dissipation, radius], radius, name="walton_braun_nd",
                     param_names=("strength", "dissipation", "radius"),
-                    param_units=("kg-1 s-2", "1", "m"), smooth_in_velocity=_no_friction)
-
-
-def _no_friction(p) -> bool:
-    """Smooth in the velocities when the friction switch is off (ε = p[1] = 0)."""
-    return p[1] == 0.0
+                    param_units=("kg-1 s-2", "1", "m"))
 
 
 @dataclass
