@@ -223,6 +223,54 @@ def _elastic_linear(rp, G, N, W, beta, E):
 
 
 @numba.njit(cache=True)
+def _classify_scaled_elastic(up, rp, G, N, W, beta, fac, cls, out):
+    """One pass over the cells for the trapezoidal rule: cls[i] as :func:`_classify` and
+    out[i] = fac[cls[i]] β (A_i - B_i) (0 for an empty window), the sliding sums of
+    :func:`_elastic_linear` re-computed every ANCHOR cells: the same operations in the same
+    order as the three separate passes, so bit for bit the same result."""
+    no_inc = -1
+    no_dec = -1
+    no_eq = -1
+    nz = -1
+    for j in range(G - W, G + W - 1):
+        d = up[j + 1] - up[j]
+        no_inc = j if d <= 0.0 else no_inc
+        no_dec = j if d >= 0.0 else no_dec
+        no_eq = j if d != 0.0 else no_eq
+    for j in range(G - W, G + W):
+        nz = j if rp[j] != 0.0 else nz
+    u64 = np.uint64
+    w1 = W - 1.0
+    i0 = 0
+    while i0 < N:
+        i1 = min(N, i0 + ANCHOR)
+        A, U, B, L = _window_sums(rp, G + i0, W)
+        for i in range(u64(i0), u64(i1)):
+            ii = u64(G) + i
+            j = ii + u64(W - 1)
+            d = up[j + u64(1)] - up[j]
+            sj = np.int64(j)
+            no_inc = sj if d <= 0.0 else no_inc
+            no_dec = sj if d >= 0.0 else no_dec
+            no_eq = sj if d != 0.0 else no_eq
+            nz = sj + 1 if rp[j + u64(1)] != 0.0 else nz
+            start = np.int64(ii) - W
+            c = 4
+            c = 3 if no_dec < start else c
+            c = 2 if no_inc < start else c
+            c = 1 if no_eq < start else c
+            c = 0 if nz < start else c
+            cls[i] = c
+            e = fac[c] * (beta * (A - B))
+            out[i] = e if c != 0 else 0.0
+            A = A + (U - w1 * rp[ii + u64(1)])
+            U = U + (rp[ii + u64(W + 1)] - rp[ii + u64(2)])
+            B = B + (w1 * rp[ii] - L)
+            L = L + (rp[ii] - rp[ii - u64(W - 1)])
+        i0 = i1
+
+
+@numba.njit(cache=True)
 def walton_braun_integral(up, rp, G, N, W, qz, qw, kp, out):
     """I_i for the Walton–Braun kernel, kp = (λ, ε, R, orientation), from padded arrays
     (G >= W ghost cells); the same call signature and result as the direct quadrature sum."""
@@ -248,17 +296,15 @@ def walton_braun_integral(up, rp, G, N, W, qz, qw, kp, out):
         if abs(b[k] - beta * (W - k)) > 1e-12 * abs(beta) * W:
             linear = False
     cls = np.empty(N, dtype=np.int8)
-    _classify(upc, rpc, G, N, W, cls)
-    # elastic part into out, then the factor of each class
-    if linear:
-        _elastic_linear(rpc, G, N, W, beta, out)
-    else:
-        for i in range(N):
-            out[i] = _elastic_sum(rpc, G + i, W, bs)
     fac = np.array([0.0, coef, coef * (1.0 - eps), coef * (1.0 + eps), coef])
-    for i in range(N):
-        c = cls[i]
-        out[i] = fac[c] * out[i] if c != 0 else 0.0
+    if linear:
+        # classes, elastic part and the factor of each class in one pass
+        _classify_scaled_elastic(upc, rpc, G, N, W, beta, fac, cls, out)
+    else:
+        _classify(upc, rpc, G, N, W, cls)
+        for i in range(N):
+            c = cls[i]
+            out[i] = fac[c] * _elastic_sum(rpc, G + i, W, bs) if c != 0 else 0.0
     # friction part on the runs of class-4 cells, BLOCK cells at a time
     acc = np.empty(BLOCK)
     ce = coef * eps
