@@ -147,3 +147,24 @@ def test_extend_velocity_matches_nearest_material_cell():
                 dist = np.abs(mat - i)
                 want[i] = u[mat[np.argmin(dist)]]        # argmin: the lower one on a tie
         assert np.array_equal(got, want)
+
+
+@pytest.mark.parametrize("W", [2, 10, 40])
+def test_fused_pass_equals_the_separate_passes_bit_for_bit(W):
+    """_classify_scaled_elastic (one pass) against _classify, _elastic_linear and the class
+    factors applied afterwards: the same bits, negative zeros included."""
+    from bsrflow.numerics.fast_integral import _classify, _classify_scaled_elastic, _elastic_linear
+    rng = np.random.default_rng(100 + W)
+    u, rho = _random_state(rng, 3000, W)
+    N = u.size - 2 * W
+    beta, coef, eps = 0.37, -2.5, 0.9
+    fac = np.array([0.0, coef, coef * (1 - eps), coef * (1 + eps), coef])
+    cls_a, cls_b = np.empty(N, np.int8), np.empty(N, np.int8)
+    out_a, out_b = np.empty(N), np.empty(N)
+    _classify(u, rho, W, N, W, cls_a)
+    _elastic_linear(rho, W, N, W, beta, out_a)
+    out_a = np.where(cls_a != 0, fac[cls_a] * out_a, 0.0)
+    _classify_scaled_elastic(u, rho, W, N, W, beta, fac, cls_b, out_b)
+    assert np.array_equal(cls_a, cls_b)
+    assert np.array_equal(out_a.view(np.int64), out_b.view(np.int64))
+    assert set(np.unique(cls_b)) == {0, 1, 2, 3, 4}
