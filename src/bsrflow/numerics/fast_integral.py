@@ -166,12 +166,9 @@ def _elastic_sum(rp, ii, W, bs):
     return s
 
 
-@numba.njit(cache=True)
-def _classify(up, rp, G, N, W, cls):
-    """cls[i]: 0 empty window (ρ = 0 on all 2W+1 nodes), 1 u constant, 2 u strictly
-    increasing, 3 strictly decreasing over the window, 4 none of these (friction sum needed).
-    Tracks the last node index j at which d_j = u_{j+1} - u_j breaks strict increase, strict
-    decrease or equality and the last node with ρ != 0 (branch-free selects)."""
+@numba.njit(cache=True, inline="always")
+def _class_start(up, rp, G, W):
+    """The trackers of :func:`_class_next` before cell 0 (nodes G-W .. G+W-1)."""
     no_inc = -1
     no_dec = -1
     no_eq = -1
@@ -183,23 +180,52 @@ def _classify(up, rp, G, N, W, cls):
         no_eq = j if d != 0.0 else no_eq
     for j in range(G - W, G + W):
         nz = j if rp[j] != 0.0 else nz
-    # unsigned indices: no negative-index wrap-around code in the loop
+    return no_inc, no_dec, no_eq, nz
+
+
+@numba.njit(cache=True, inline="always")
+def _class_next(up, rp, ii, W, no_inc, no_dec, no_eq, nz):
+    """Class of the cell at padded index ii (unsigned) given the trackers up to node ii+W-1:
+    the last node j at which d_j = u_{j+1} - u_j breaks strict increase, strict decrease or
+    equality, and the last node with ρ != 0 (branch-free selects).  Returns the updated
+    trackers and the class (0 empty, 1 constant, 2 increasing, 3 decreasing, 4 other)."""
     u64 = np.uint64
-    for i in range(u64(N)):
-        ii = u64(G) + i
-        j = ii + u64(W - 1)
-        d = up[j + u64(1)] - up[j]
-        sj = np.int64(j)
-        no_inc = sj if d <= 0.0 else no_inc
-        no_dec = sj if d >= 0.0 else no_dec
-        no_eq = sj if d != 0.0 else no_eq
-        nz = sj + 1 if rp[j + u64(1)] != 0.0 else nz
-        start = np.int64(ii) - W
-        c = 4
-        c = 3 if no_dec < start else c
-        c = 2 if no_inc < start else c
-        c = 1 if no_eq < start else c
-        c = 0 if nz < start else c
+    j = ii + u64(W - 1)
+    d = up[j + u64(1)] - up[j]
+    sj = np.int64(j)
+    no_inc = sj if d <= 0.0 else no_inc
+    no_dec = sj if d >= 0.0 else no_dec
+    no_eq = sj if d != 0.0 else no_eq
+    nz = sj + 1 if rp[j + u64(1)] != 0.0 else nz
+    start = np.int64(ii) - W
+    c = 4
+    c = 3 if no_dec < start else c
+    c = 2 if no_inc < start else c
+    c = 1 if no_eq < start else c
+    c = 0 if nz < start else c
+    return no_inc, no_dec, no_eq, nz, c
+
+
+@numba.njit(cache=True, inline="always")
+def _elastic_slide(rp, ii, W, w1, A, U, B, L):
+    """The sliding sums of :func:`_elastic_linear` from cell ii to ii+1 (ii unsigned)."""
+    u64 = np.uint64
+    A = A + (U - w1 * rp[ii + u64(1)])
+    U = U + (rp[ii + u64(W + 1)] - rp[ii + u64(2)])
+    B = B + (w1 * rp[ii] - L)
+    L = L + (rp[ii] - rp[ii - u64(W - 1)])
+    return A, U, B, L
+
+
+@numba.njit(cache=True)
+def _classify(up, rp, G, N, W, cls):
+    """cls[i]: 0 empty window (ρ = 0 on all 2W+1 nodes), 1 u constant, 2 u strictly
+    increasing, 3 strictly decreasing over the window, 4 none of these (friction sum needed).
+    O(1) per cell with the trackers of :func:`_class_next`."""
+    no_inc, no_dec, no_eq, nz = _class_start(up, rp, G, W)
+    # unsigned indices: no negative-index wrap-around code in the loop
+    for i in range(np.uint64(N)):
+        no_inc, no_dec, no_eq, nz, c = _class_next(up, rp, np.uint64(G) + i, W, no_inc, no_dec, no_eq, nz)
         cls[i] = c
 
 
@@ -208,66 +234,36 @@ def _elastic_linear(rp, G, N, W, beta, E):
     """E_i = β (A_i - B_i) for the trapezoidal rule (b_k = β (W - k)), A_i = Σ (W-k) ρ_{i+k},
     B_i = Σ (W-k) ρ_{i-k}, slid from cell to cell with the box sums U_i = Σ_{k=2}^{W} ρ_{i+k},
     L_i = Σ_{k=1}^{W-1} ρ_{i-k} and re-computed from scratch every ANCHOR cells."""
+    w1 = W - 1.0
     i0 = 0
     while i0 < N:
         i1 = min(N, i0 + ANCHOR)
         A, U, B, L = _window_sums(rp, G + i0, W)
-        w1 = W - 1.0
         for i in range(np.uint64(i0), np.uint64(i1)):
             ii = np.uint64(G) + i
             E[i] = beta * (A - B)
-            A = A + (U - w1 * rp[ii + np.uint64(1)])
-            U = U + (rp[ii + np.uint64(W + 1)] - rp[ii + np.uint64(2)])
-            B = B + (w1 * rp[ii] - L)
-            L = L + (rp[ii] - rp[ii - np.uint64(W - 1)])
+            A, U, B, L = _elastic_slide(rp, ii, W, w1, A, U, B, L)
         i0 = i1
 
 
 @numba.njit(cache=True)
 def _classify_scaled_elastic(up, rp, G, N, W, beta, fac, cls, out):
     """One pass over the cells for the trapezoidal rule: cls[i] as :func:`_classify` and
-    out[i] = fac[cls[i]] β (A_i - B_i) (0 for an empty window), the sliding sums of
-    :func:`_elastic_linear` re-computed every ANCHOR cells: the same operations in the same
-    order as the three separate passes, so bit for bit the same result."""
-    no_inc = -1
-    no_dec = -1
-    no_eq = -1
-    nz = -1
-    for j in range(G - W, G + W - 1):
-        d = up[j + 1] - up[j]
-        no_inc = j if d <= 0.0 else no_inc
-        no_dec = j if d >= 0.0 else no_dec
-        no_eq = j if d != 0.0 else no_eq
-    for j in range(G - W, G + W):
-        nz = j if rp[j] != 0.0 else nz
-    u64 = np.uint64
+    out[i] = fac[cls[i]] β (A_i - B_i) (0 for an empty window) as :func:`_elastic_linear`: the
+    same operations in the same order as the separate passes, so bit for bit the same result."""
+    no_inc, no_dec, no_eq, nz = _class_start(up, rp, G, W)
     w1 = W - 1.0
     i0 = 0
     while i0 < N:
         i1 = min(N, i0 + ANCHOR)
         A, U, B, L = _window_sums(rp, G + i0, W)
-        for i in range(u64(i0), u64(i1)):
-            ii = u64(G) + i
-            j = ii + u64(W - 1)
-            d = up[j + u64(1)] - up[j]
-            sj = np.int64(j)
-            no_inc = sj if d <= 0.0 else no_inc
-            no_dec = sj if d >= 0.0 else no_dec
-            no_eq = sj if d != 0.0 else no_eq
-            nz = sj + 1 if rp[j + u64(1)] != 0.0 else nz
-            start = np.int64(ii) - W
-            c = 4
-            c = 3 if no_dec < start else c
-            c = 2 if no_inc < start else c
-            c = 1 if no_eq < start else c
-            c = 0 if nz < start else c
+        for i in range(np.uint64(i0), np.uint64(i1)):
+            ii = np.uint64(G) + i
+            no_inc, no_dec, no_eq, nz, c = _class_next(up, rp, ii, W, no_inc, no_dec, no_eq, nz)
             cls[i] = c
             e = fac[c] * (beta * (A - B))
             out[i] = e if c != 0 else 0.0
-            A = A + (U - w1 * rp[ii + u64(1)])
-            U = U + (rp[ii + u64(W + 1)] - rp[ii + u64(2)])
-            B = B + (w1 * rp[ii] - L)
-            L = L + (rp[ii] - rp[ii - u64(W - 1)])
+            A, U, B, L = _elastic_slide(rp, ii, W, w1, A, U, B, L)
         i0 = i1
 
 
