@@ -29,6 +29,7 @@ import numba
 import numpy as np
 
 from bsrflow.numerics.compiled import direct_integral
+from bsrflow.numerics.fast_integral import _classify, _classify_scaled_elastic
 from bsrflow.numerics.reference import ReferenceScheme
 from bsrflow.numerics.solver import Scheme, Simulation
 from bsrflow.physics.column import ColumnSetup, initial_density, run_bsr_column
@@ -123,45 +124,72 @@ def bench_grid(ppd, repeats, steps_c, steps_r):
 
 
 def profile(ppd, repeats):
-    """Time per cell of each piece of a step, on the 1.3-s state (one core)."""
+    """Where a step's time goes, on the 1.3-s state (one core): each piece called as the step
+    calls it and as often (the right-hand side and the integral over the cells below the column
+    top hi, the ghost fill, velocity extension and moving average over the whole grid), in ns
+    per grid cell-stage, beside the whole step.  Each piece is called from Python, which adds a
+    dispatch overhead of about 1 µs per call that the step does not pay (visible at ppd10, where
+    the pieces then add up to more than the step).  The direct integral over the same cells is
+    given for comparison.  Times are the minimum over the repeats (the least disturbed by other
+    load), unlike the medians of the csups table."""
     s, states = column_states(ppd)
     t, u, r, dt = states[-1]
     sim = _sim(s, Scheme.preset("seed", dt=dt))
     g = sim.grid
     N, W = g.n_cells, sim.W
     G = max(W, 2)
+    stages = sim.tableau.stages
+    nz = np.nonzero(r)[0]
+    hi = min(N, (int(nz[-1]) + 1 if nz.size else 0) + 2 * stages + 2)     # as compiled.advance (reach 1)
     up, rp = np.empty(N + 2 * G), np.empty(N + 2 * G)
     du, dr, out = np.empty(N), np.empty(N), np.empty(N)
     c = sim.core
     kp, bp = sim.model.kernel.params, sim.model.boundary_params
-    fill = lambda: c.fill_ghosts(u, r, t, up, rp, G, 1, 2, 0.0, g.dx, bp)
+    fill = lambda: c.fill_ghosts(u, r, t, up, rp, G, 1, 2, 0.0, g.dx, bp)  # noqa: E731
     fill()
     fast = sim.model.kernel.fast_integral
     direct = direct_integral(sim.model.kernel.compiled)
-    pieces = {
-        "fill_ghosts": fill,
-        "integral_fast": lambda: fast(up, rp, G, N, W, sim.qz, sim.qw, kp, out),
-        "integral_direct": lambda: direct(up, rp, G, N, W, sim.qz, sim.qw, kp, out),
-        "rhs_with_fast_integral": lambda: c.rhs(t, up, rp, G, N, 0.0, g.dx, W, sim.qz, sim.qw, kp,
-                                                sim.model.gravity, sim.model.external_params,
-                                                sim.model.motion.params, du, dr, 1, 0.0, sim.kappa, r, sim.vacuum_density,
-                                                0.0, 0.0),
-        "extend_velocity": lambda: c.extend_velocity(u.copy(), r, sim.vacuum_density),
-        "moving_average": lambda: c.moving_average(u.copy(), r.copy(), up, rp, G, 1),
+    uu, rr = u.copy(), r.copy()
+    fac5 = np.ones(5)
+    cls = np.empty(N, dtype=np.int8)
+    pieces = {    # name: (function, calls per step)
+        "fill_ghosts": (fill, stages + 1),
+        "rhs_with_fast_integral": (lambda: c.rhs(t, up, rp, G, hi, 0.0, g.dx, W, sim.qz, sim.qw, kp,
+                                                 sim.model.gravity, sim.model.external_params,
+                                                 sim.model.motion.params, du, dr, 1, 0.0, sim.kappa, r,
+                                                 sim.vacuum_density, 0.0, 0.0), stages),
+        "extend_velocity": (lambda: c.extend_velocity(uu, r, sim.vacuum_density), 1),
+        "moving_average": (lambda: c.moving_average(uu, rr, up, rp, G, 1), 1),
+        "integral_fast": (lambda: fast(up, rp, G, hi, W, sim.qz, sim.qw, kp, out), stages),
+        "integral_direct": (lambda: direct(up, rp, G, hi, W, sim.qz, sim.qw, kp, out), stages),
+        # the fast integral's O(1)-per-cell pass alone (classes, elastic sums, factors); the rest
+        # of integral_fast is the O(W) sign sum on the cells_friction_sum cells
+        "integral_one_pass": (lambda: _classify_scaled_elastic(up, rp, G, hi, W, 1.0, fac5, cls, out), stages),
     }
     n_rep = 200
+    per_cs = N * stages
     prof = {}
-    for name, fn in pieces.items():
+    for name, (fn, calls) in pieces.items():
         fn()
-        med, _ = _median_time(lambda: [fn() for _ in range(n_rep)], repeats)
-        prof[name + "_ns_per_cell"] = med / n_rep / N * 1e9
+        _, all_t = _median_time(lambda: [fn() for _ in range(n_rep)], max(repeats, 5))
+        prof[name + "_ns_per_cell_stage"] = min(all_t) / n_rep * calls / per_cs * 1e9
     u2, r2 = u.copy(), r.copy()
     sim.advance(u2, r2, t, t + dt)
-    med, _ = _median_time(lambda: sim.advance(u.copy(), r.copy(), t, t + 100 * dt), repeats)
-    prof["whole_step_ns_per_cell_stage"] = med / 100 / N / sim.tableau.stages * 1e9
+    _, all_t = _median_time(lambda: sim.advance(u.copy(), r.copy(), t, t + 100 * dt), max(repeats, 5))
+    whole = min(all_t) / 100 / per_cs * 1e9
+    prof["whole_step_ns_per_cell_stage"] = whole
     prof["state_t"] = t
     prof["cells"] = N
+    prof["cells_below_top"] = hi
+    prof["cells_friction_sum"] = int(_friction_cells(up, rp, G, hi, W))
     return prof
+
+
+def _friction_cells(up, rp, G, N, W):
+    """Number of cells whose window needs the O(W) sign sum (class 4 of the fast integral)."""
+    cls = np.empty(N, dtype=np.int8)
+    _classify(up, rp, G, N, W, cls)
+    return np.sum(cls == 4)
 
 
 def column_2s(repeats):
@@ -223,12 +251,13 @@ def main(argv=None):
         print(f"{key:6s} {r['cells']:6d} {r['kernel_radius_cells']:3d} {r['numpy_csups']:12.3e} "
               f"{r['bsrflow_csups']:14.3e} {r['speedup']:9.1f} {r['speedup_over_direct_integral']:9.1f} "
               f"{max(r['max_rel_diff_vs_numpy'], r['max_rel_diff_fast_vs_direct']):12.2e}", flush=True)
-    print("profile (ns per cell, 1.3-s state):", flush=True)
+    print("profile (ns per grid cell-stage, 1.3-s state):", flush=True)
     out["profile"] = {f"ppd{p}": profile(p, reps) for p in (10, 40)}
     for key, prof in out["profile"].items():
-        print("  " + key + ": " + ", ".join(f"{k[:-12] if k.endswith('_ns_per_cell') else k} {v:.3g}"
-                                            for k, v in prof.items() if k.endswith("ns_per_cell")
-                                            or k.endswith("stage")), flush=True)
+        print("  " + key + ": " + ", ".join(f"{k.replace('_ns_per_cell_stage', '')} {v:.3g}"
+                                            for k, v in prof.items() if k.endswith("_ns_per_cell_stage"))
+              + f" (cells {prof['cells']}, below the top {prof['cells_below_top']}, "
+                f"with the sign sum {prof['cells_friction_sum']})", flush=True)
     c2 = column_2s(2 if args.quick else 3)
     out["column_2s_wall_s"] = c2["median_s"]
     out["column_2s"] = c2
