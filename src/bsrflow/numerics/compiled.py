@@ -82,9 +82,17 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
     @numba.njit(cache=False)
     def fill_ghosts(u, rho, t, up, rp, G, bcl, bch, xlo, dx, bp):
         """Copy (u, rho) into padded arrays with G ghost cells on each side (see grid.py)."""
+        fill_ghosts_below(u, rho, t, up, rp, G, bcl, bch, xlo, dx, bp, u.size)
+
+    @numba.njit(cache=False)
+    def fill_ghosts_below(u, rho, t, up, rp, G, bcl, bch, xlo, dx, bp, n_copy):
+        """:func:`fill_ghosts` that copies only the cells below ``n_copy`` (the stages' reach
+        when they skip the vacuum above a column); the padded entries of the cells above keep
+        their old values, and both ghost layers are filled as usual."""
         N = u.size
-        up[G:G + N] = u
-        rp[G:G + N] = rho
+        n = min(N, n_copy)
+        up[G:G + n] = u[:n]
+        rp[G:G + n] = rho[:n]
         for g in range(1, G + 1):
             lo = G - g            # padded index of cell -g
             hi = G + N - 1 + g    # padded index of cell N-1+g
@@ -375,8 +383,8 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
         rp = np.empty(N + 2 * G)
         ku = np.empty((s, N))
         kr = np.empty((s, N))
-        yu = np.empty(N)
-        yr = np.empty(N)
+        yu = u.copy()          # stage states (initialised: with the vacuum skip the cells above
+        yr = rho.copy()        # the stages' reach keep earlier values, never read)
         vt = np.empty((s, nt))
         xt = np.empty(nt)
         steps = 0
@@ -429,10 +437,12 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
                         umax = abs(u[i])
                         where = i
                 break
-            # Runge-Kutta stages
+            # Runge-Kutta stages.  A stage reads the padded arrays only below hi + W + reach (its
+            # stencil and window), so with the vacuum skip only those cells are copied
+            n_copy = min(N, hi + W + 2) if can_skip else N
             for st in range(s):
-                yu[:] = u
-                yr[:] = rho
+                yu[:n_copy] = u[:n_copy]
+                yr[:n_copy] = rho[:n_copy]
                 for j in range(st):
                     a = A[st, j]
                     if a != 0.0:
@@ -440,7 +450,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
                             yu[i] += dt * a * ku[j, i]
                             yr[i] += dt * a * kr[j, i]
                 ts = t + c[st] * dt
-                fill_ghosts(yu, yr, ts, up, rp, G, bcl, bch, xlo, dx, bp)
+                fill_ghosts_below(yu, yr, ts, up, rp, G, bcl, bch, xlo, dx, bp, n_copy)
                 if tracer_mode == 2 or (tracer_mode == 1 and st == 0):
                     for n in range(nt):
                         xt[n] = tracers[n]
@@ -555,6 +565,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
 
     core = Core()
     core.fill_ghosts = fill_ghosts
+    core.fill_ghosts_below = fill_ghosts_below
     core.rhs = rhs
     core.moving_average = moving_average
     core.interp = interp
