@@ -150,21 +150,24 @@ def test_extend_velocity_matches_nearest_material_cell():
 
 
 @pytest.mark.parametrize("W", [2, 10, 40])
-def test_fused_pass_equals_the_separate_passes_bit_for_bit(W):
-    """_classify_scaled_elastic (one pass) against _classify, _elastic_linear and the class
-    factors applied afterwards: the same bits, negative zeros included."""
-    from bsrflow.numerics.fast_integral import _classify, _classify_scaled_elastic, _elastic_linear
+def test_one_pass_classes_and_elastic_sums(W):
+    """_classify_scaled_elastic: the classes of _classify exactly, and the class factor times
+    the elastic sum E_i = Σ_k σ(k) b_|k| ρ_{i+k} (the O(W) sum of _elastic_sum) to round-off,
+    0 for empty windows; on states with every class, exact ties and 1e-250 tails."""
+    from bsrflow.numerics.fast_integral import _classify, _classify_scaled_elastic, _elastic_sum
     rng = np.random.default_rng(100 + W)
     u, rho = _random_state(rng, 3000, W)
     N = u.size - 2 * W
     beta, coef, eps = 0.37, -2.5, 0.9
     fac = np.array([0.0, coef, coef * (1 - eps), coef * (1 + eps), coef])
-    cls_a, cls_b = np.empty(N, np.int8), np.empty(N, np.int8)
-    out_a, out_b = np.empty(N), np.empty(N)
+    k = np.arange(-W, W + 1)
+    bs = np.sign(k) * beta * (W - np.abs(k))                      # σ(k) b_|k|, b_k = β (W - k)
+    cls_a, cls_b, out = np.empty(N, np.int8), np.empty(N, np.int8), np.empty(N)
     _classify(u, rho, W, N, W, cls_a)
-    _elastic_linear(rho, W, N, W, beta, out_a)
-    out_a = np.where(cls_a != 0, fac[cls_a] * out_a, 0.0)
-    _classify_scaled_elastic(u, rho, W, N, W, beta, fac, cls_b, out_b)
+    _classify_scaled_elastic(u, rho, W, N, W, beta, fac, cls_b, out)
     assert np.array_equal(cls_a, cls_b)
-    assert np.array_equal(out_a.view(np.int64), out_b.view(np.int64))
     assert set(np.unique(cls_b)) == {0, 1, 2, 3, 4}
+    want = np.array([fac[c] * _elastic_sum(rho, W + i, W, bs) for i, c in enumerate(cls_a)])
+    scale = abs(coef) * (1 + eps) * np.abs(bs).sum() * rho.max()
+    assert np.max(np.abs(out - want)) <= 1e-13 * scale
+    assert np.all(out[cls_b == 0] == 0.0)

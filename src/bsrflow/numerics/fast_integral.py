@@ -35,8 +35,7 @@ with b_k = w_k (R - |z_k|) the quadrature weight times the kernel's hat [m²].  
 
 The passes: classify every cell (empty / constant / increasing / decreasing / other), E_i for
 every cell, I_i = o λ f_c E_i with f = 0, 1, 1-ε, 1+ε, 1 for the classes (for the trapezoidal
-rule these three are one pass, ``_classify_scaled_elastic``, bit for bit the same as the
-separate ones), then on each run of cells of the last class I_i -= o λ ε V_i.
+rule these three are one pass, ``_classify_scaled_elastic``), then on each run of cells of the last class I_i -= o λ ε V_i.
 
 The result equals the direct sum up to round-off (the terms are added in a different order):
 ``tests/test_fast_integral.py`` checks this on random, monotone, piecewise-constant and
@@ -208,7 +207,9 @@ def _class_next(up, rp, ii, W, no_inc, no_dec, no_eq, nz):
 
 @numba.njit(cache=True, inline="always")
 def _elastic_slide(rp, ii, W, w1, A, U, B, L):
-    """The sliding sums of :func:`_elastic_linear` from cell ii to ii+1 (ii unsigned)."""
+    """The sliding sums of :func:`_classify_scaled_elastic` from cell ii to ii+1 (ii unsigned):
+    A = Σ_{k=1}^{W-1} (W-k) ρ_{i+k}, U = Σ_{k=2}^{W} ρ_{i+k}, B = Σ_{k=1}^{W-1} (W-k) ρ_{i-k},
+    L = Σ_{k=1}^{W-1} ρ_{i-k}."""
     u64 = np.uint64
     A = A + (U - w1 * rp[ii + u64(1)])
     U = U + (rp[ii + u64(W + 1)] - rp[ii + u64(2)])
@@ -230,27 +231,12 @@ def _classify(up, rp, G, N, W, cls):
 
 
 @numba.njit(cache=True)
-def _elastic_linear(rp, G, N, W, beta, E):
-    """E_i = β (A_i - B_i) for the trapezoidal rule (b_k = β (W - k)), A_i = Σ (W-k) ρ_{i+k},
-    B_i = Σ (W-k) ρ_{i-k}, slid from cell to cell with the box sums U_i = Σ_{k=2}^{W} ρ_{i+k},
-    L_i = Σ_{k=1}^{W-1} ρ_{i-k} and re-computed from scratch every ANCHOR cells."""
-    w1 = W - 1.0
-    i0 = 0
-    while i0 < N:
-        i1 = min(N, i0 + ANCHOR)
-        A, U, B, L = _window_sums(rp, G + i0, W)
-        for i in range(np.uint64(i0), np.uint64(i1)):
-            ii = np.uint64(G) + i
-            E[i] = beta * (A - B)
-            A, U, B, L = _elastic_slide(rp, ii, W, w1, A, U, B, L)
-        i0 = i1
-
-
-@numba.njit(cache=True)
 def _classify_scaled_elastic(up, rp, G, N, W, beta, fac, cls, out):
-    """One pass over the cells for the trapezoidal rule: cls[i] as :func:`_classify` and
-    out[i] = fac[cls[i]] β (A_i - B_i) (0 for an empty window) as :func:`_elastic_linear`: the
-    same operations in the same order as the separate passes, so bit for bit the same result."""
+    """One pass over the cells for the trapezoidal rule (b_k = β (W - k)): cls[i] as
+    :func:`_classify` and out[i] = fac[cls[i]] E_i (0 for an empty window), E_i = β (A_i - B_i)
+    with the triangular window sums A_i = Σ (W-k) ρ_{i+k}, B_i = Σ (W-k) ρ_{i-k} slid from cell
+    to cell (:func:`_elastic_slide`) and re-computed from scratch every ANCHOR cells, so that
+    round-off cannot accumulate."""
     no_inc, no_dec, no_eq, nz = _class_start(up, rp, G, W)
     w1 = W - 1.0
     i0 = 0
