@@ -35,7 +35,8 @@ with b_k = w_k (R - |z_k|) the quadrature weight times the kernel's hat [m²].  
 
 The passes: classify every cell (empty / constant / increasing / decreasing / other), E_i for
 every cell, I_i = o λ f_c E_i with f = 0, 1, 1-ε, 1+ε, 1 for the classes (for the trapezoidal
-rule these three are one pass, ``_classify_scaled_elastic``), then on each run of cells of the last class I_i -= o λ ε V_i.
+rule these three are one pass, ``_classify_scaled_elastic``), then on each run of cells of the
+last class I_i -= o λ ε V_i.
 
 The result equals the direct sum up to round-off (the terms are added in a different order):
 ``tests/test_fast_integral.py`` checks this on random, monotone, piecewise-constant and
