@@ -47,7 +47,7 @@ import time
 import numba
 import numpy as np
 
-from bsrflow.numerics.solver import Scheme, Simulation
+from bsrflow.numerics.solver import Scheme
 from bsrflow.physics.column import ColumnSetup, column_run_from_result, initial_density
 
 T = 0.3
@@ -80,7 +80,7 @@ OTHER_REFS = ("converged", "previous_preset", "seed_own")
 def run(scheme, ppd, perturb=0.0, repeats=1):
     s = ColumnSetup(points_per_diameter=ppd, **BASE)
     g = s.grid()
-    sim = Simulation(s.model(), g, scheme, vacuum_density=1e-4 * _LINE, top_tolerance=1e-3 * _LINE)
+    sim = s.simulation(scheme)
     rho0 = initial_density(s, g.x)
     if perturb:
         rho0 = rho0 * (1.0 + perturb * np.random.default_rng(1).standard_normal(rho0.size))

@@ -31,7 +31,7 @@ import numpy as np
 from bsrflow.numerics.compiled import direct_integral
 from bsrflow.numerics.fast_integral import _classify, _classify_scaled_elastic
 from bsrflow.numerics.reference import ReferenceScheme
-from bsrflow.numerics.solver import Scheme, Simulation
+from bsrflow.numerics.solver import Scheme
 from bsrflow.physics.column import ColumnSetup, initial_density, run_bsr_column
 
 DEFAULTS = dict(m0=406.0, kernel_dissipation=0.9, a_over_d=0.75, frequency=10.0)
@@ -43,9 +43,8 @@ def _setup(ppd, **kw):
 
 
 def _sim(setup, scheme, **kw):
-    line = setup.particle_mass / setup.diameter
-    return Simulation(setup.model(), setup.grid(), scheme, vacuum_density=1e-4 * line,
-                      top_tolerance=1e-3 * line, **kw)
+    """The column's own solver (its monitors, velocity extension and density floor)."""
+    return setup.simulation(scheme, **kw)
 
 
 def column_states(ppd):

@@ -111,3 +111,31 @@ def test_positivity_fix_conserves_mass(rng):
     sim.core.make_positive(rho)
     assert rho.min() >= 0.0
     assert abs(rho.sum() - total) < 1e-12 * np.abs(rho).sum()
+
+
+@pytest.mark.parametrize("skip", [True, False])
+def test_density_floor_matches_reference(skip, rng):
+    """|ρ| below the floor is 0 after every step, in the compiled step and the reference alike."""
+    grid = Grid1D(0.0, 1.0, 60, "floor", "vacuum")
+    sim = Simulation(_model(("floor", "vacuum")), grid, Scheme(stepper="kutta3", filter=True, dt=1e-3),
+                     vacuum_density=1.0, density_floor=1e-3, skip_vacuum=skip)
+    ref = ReferenceScheme(sim)
+    u = rng.normal(0.0, 0.5, grid.n_cells)
+    rho = rng.uniform(0.0, 3.0, grid.n_cells)
+    rho[30:40] = 10.0 ** rng.uniform(-8, -1, 10) * rng.choice([-1.0, 1.0], 10)    # debris, both signs
+    rho[40:] = 0.0
+    un, rn = ref.run_fixed(u.copy(), rho.copy(), 0.0, 1e-3, 2)
+    uc, rc = u.copy(), rho.copy()
+    sim.advance(uc, rc, 0.0, 2e-3)
+    assert np.all((rc == 0.0) | (np.abs(rc) >= 1e-3))
+    assert np.count_nonzero((rho != 0) & (np.abs(rho) < 1e-3)) >= 5          # there was debris to clear
+    assert np.array_equal(rc == 0.0, rn == 0.0)
+    assert _relerr(uc, un) < 1e-12
+    assert _relerr(rc, rn) < 1e-12
+
+
+@pytest.mark.parametrize("floor, vacuum", [(-1.0, 1.0), (1.0, 1.0), (np.nan, 1.0), (np.inf, 0.0)])
+def test_density_floor_out_of_range_is_a_clear_error(floor, vacuum):
+    grid = Grid1D(0.0, 1.0, 60, "floor", "vacuum")
+    with pytest.raises(ValueError, match=r"density_floor = .* outside the valid range \[0, "):
+        Simulation(_model(("floor", "vacuum")), grid, vacuum_density=vacuum, density_floor=floor)

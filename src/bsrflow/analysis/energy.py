@@ -35,8 +35,7 @@ DEFAULT_CALIBRATION = {"m0": 410.0, "kernel_dissipation": 0.83}
 
 def _run(setup, scheme):
     grid = setup.grid()
-    line = setup.particle_mass / setup.diameter
-    sim = Simulation(setup.model(), grid, scheme, vacuum_density=1e-4 * line, top_tolerance=1e-3 * line)
+    sim = setup.simulation(scheme)
     try:
         res = sim.run(np.zeros(grid.n_cells), initial_density(setup, grid.x), setup.t_end,
                       save_every=setup.save_every, tracers=setup.sphere_centres())

@@ -355,7 +355,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
     def advance(u, rho, t, t_end, dt_fixed, cfl, kappa, A, b, c, filt, bcl, bch, xlo, dx, W, qz, qw,
                 kp, grav, ep, mp, bp, dt_min, rho_max, max_steps, strain_limit, top_tol,
                 tracers, tracer_mode, vac_thr, hyper, positivity, sel_tau, bhat, rtol, atol_u, atol_r,
-                err_order, counters, skip_vacuum, sel2):
+                err_order, counters, skip_vacuum, sel2, rho_floor):
         """Advance (u, rho, tracers) in place from t to t_end.
 
         dt: ``dt_fixed`` if > 0, else cfl Δx / (max|u| + sqrt(κ max ρ)); the last step is
@@ -535,6 +535,13 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
                     if rho[i] > rmax:
                         rmax = rho[i]
                 selective_average(u, rho, up, rp, G, bcl, sel_tau, umax + math.sqrt(kappa * rmax))
+            if rho_floor > 0.0:
+                # vacuum debris: |ρ| below the floor is set to 0 at the end of every step (above
+                # hi + 1 ρ is exactly 0 already: the stages leave it, the moving average spreads
+                # by one cell)
+                for i in range(min(N, hi + 2)):
+                    r = rho[i]
+                    rho[i] = 0.0 if abs(r) < rho_floor else r
             steps += 1
             for i in range(N):
                 if not (math.isfinite(u[i]) and math.isfinite(rho[i])):

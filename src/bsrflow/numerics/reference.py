@@ -143,6 +143,8 @@ class ReferenceScheme:
             un, rn = self.moving_average(un, rn, t + dt)
         elif self.sim.scheme.selective_filter > 0 and self.sim.scheme.sensor_dissipation == 0:
             un, rn = self.selective_average(un, rn, t + dt)
+        if self.sim.density_floor > 0:
+            rn = np.where(np.abs(rn) < self.sim.density_floor, 0.0, rn)
         return un, rn
 
     def selective_average(self, u, rho, t):

@@ -214,11 +214,18 @@ class Simulation:
     skip_vacuum : do not update the empty cells above a column during the stages (needs a
         vacuum top and ``vacuum_density`` > 0; see ``compiled.make_core``'s ``advance``); the
         result is bit-for-bit the same.
+    density_floor : at the end of every step, densities with |ρ| below this [kg/m] are set to 0
+        (0: off, the default; must be below ``vacuum_density`` when that is set).  The moving
+        average spreads ρ by one cell per step, so without a floor an exponentially small
+        debris (down to subnormal numbers, 1e-323 kg/m, and of either sign) creeps up through
+        the vacuum above a column and is computed as material; the tapped column
+        (:meth:`bsrflow.physics.column.ColumnSetup.simulation`) sets 1e-30 m/d.
     """
 
     def __init__(self, model: BSRModel, grid: Grid1D, scheme: Scheme | None = None, *, rho_max=0.0,
                  dt_min=1e-12, strain_limit=0.0, top_tolerance=0.0, max_steps=50_000_000,
-                 vacuum_density=0.0, integral="fast", integral_fn=None, skip_vacuum=True):
+                 vacuum_density=0.0, integral="fast", integral_fn=None, skip_vacuum=True,
+                 density_floor=0.0):
         self.model = model
         self.grid = grid
         self.scheme = scheme or Scheme.preset("seed")
@@ -248,6 +255,11 @@ class Simulation:
         if not (np.isfinite(vacuum_density) and vacuum_density >= 0):
             raise ValueError(f"vacuum_density = {vacuum_density!r} is outside the valid range [0, inf) kg/m")
         self.vacuum_density = float(vacuum_density)
+        top = self.vacuum_density if self.vacuum_density > 0 else np.inf
+        if not (np.isfinite(density_floor) and 0 <= density_floor < top):
+            rng = f"[0, vacuum_density = {self.vacuum_density!r})" if self.vacuum_density > 0 else "[0, inf)"
+            raise ValueError(f"density_floor = {density_floor!r} is outside the valid range {rng} kg/m")
+        self.density_floor = float(density_floor)
         self.skip_vacuum = bool(skip_vacuum)
         if integral not in ("fast", "direct"):
             raise ValueError(f"integral = {integral!r} is not one of ('fast', 'direct')")
@@ -277,7 +289,7 @@ class Simulation:
             int(max_steps or self.max_steps), self.strain_limit, self.top_tolerance, tr, mode,
             self.vacuum_density, float(s.hyperdiffusion), bool(s.positivity), float(s.selective_filter),
             self._bhat, float(s.rtol or 0.0), float(s.atol[0]), float(s.atol[1]), float(self._err_order),
-            self.counters, self.skip_vacuum, float(s.sensor_dissipation))
+            self.counters, self.skip_vacuum, float(s.sensor_dissipation), self.density_floor)
 
     def rhs(self, u, rho, t):
         """Semi-discrete right-hand side (du/dt, dρ/dt) at time t."""

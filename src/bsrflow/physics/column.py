@@ -179,13 +179,15 @@ class ColumnSetup:
     def tap_times(self) -> np.ndarray:
         return self.tap_start + self.tap_period * np.arange(self.n_taps)
 
-    def simulation(self, scheme: Scheme) -> Simulation:
+    def simulation(self, scheme: Scheme, **kw) -> Simulation:
         """The solver of this column with its monitors: velocity extension below 1e-4 of the
-        stacked line density m/d, and a stop when more than 1e-3 m/d [kg/m] reaches the
-        kernel radius below the domain top."""
+        stacked line density m/d, a stop when more than 1e-3 m/d [kg/m] reaches the kernel
+        radius below the domain top, and |ρ| < 1e-30 m/d set to 0 after every step (vacuum
+        debris; ``Simulation``'s ``density_floor``).  ``kw``: further ``Simulation`` options."""
         line = self.particle_mass / self.diameter
-        return Simulation(self.model(), self.grid(), scheme, vacuum_density=1e-4 * line,
-                          top_tolerance=1e-3 * line)
+        opts = dict(vacuum_density=1e-4 * line, top_tolerance=1e-3 * line, density_floor=1e-30 * line)
+        opts.update(kw)
+        return Simulation(self.model(), self.grid(), scheme, **opts)
 
     def with_(self, **kw) -> "ColumnSetup":
         return replace(self, **kw)
