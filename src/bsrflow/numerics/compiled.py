@@ -261,7 +261,8 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
         nearest cell with ρ >= thr (the lower one on a tie).  Velocity has no meaning where
         there is no material; without this, the vacuum above a column free-falls (u = -g t)
         and the central differences and the moving average drag that velocity into the
-        material.  One pass over the runs of vacuum cells, no allocation."""
+        material.  One pass over the runs of vacuum cells, no allocation.  Returns the index of
+        the highest material cell (-1: none)."""
         N = u.size
         prev = -1                      # last material cell below the current run
         i = 0
@@ -287,6 +288,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
                 if j > mid:
                     u[mid:j] = u[j]
             i = j
+        return prev
 
     @numba.njit(cache=False)
     def selective_average(u, rho, up, rp, G, bcl, tau, speed):
@@ -396,6 +398,9 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
         can_skip = skip_vacuum and vac_thr > 0.0 and bch == 2
         reach = 2 if (hyper > 0.0 or sel2 > 0.0) else 1
         hi = N
+        # tail: u[tail:] all equal u[N-1] and ρ[tail:] = 0 (set by the restricted post-step
+        # passes below; N: nothing known), so that whole-grid maxima need not read it
+        tail = N
         while t < t_end:
             if can_skip:
                 # ρ = 0 above the previous step's hi + 1 (the stages leave it at 0 there and the
@@ -415,12 +420,11 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
             else:
                 umax = 0.0
                 rmax = 0.0
-                for i in range(N):
-                    a = abs(u[i])
-                    if a > umax:
-                        umax = a
-                    if rho[i] > rmax:
-                        rmax = rho[i]
+                for i in range(tail):           # branch-free maxima (exact in any order)
+                    umax = max(umax, abs(u[i]))
+                    rmax = max(rmax, rho[i])
+                if tail < N:
+                    umax = max(umax, abs(u[N - 1]))
                 speed = umax + math.sqrt(kappa * rmax)
                 dt = cfl * dx / speed if speed > 0.0 else t_end - t
             if adaptive and dt_prop < dt:
@@ -492,7 +496,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
                 # gradient-catastrophe monitor on the start-of-step velocity (ghosts of stage 0
                 # are overwritten; recompute with one-sided ends)
                 worst = 0.0
-                for i in range(1, N - 1):
+                for i in range(1, min(N - 1, tail + 1)):     # 0 on the uniform tail
                     comp = -(u[i + 1] - u[i - 1]) / (2.0 * dx) * dt
                     if comp > worst:
                         worst = comp
@@ -518,13 +522,29 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
                     if tracers[n] < xlo:  # floor
                         tracers[n] = xlo
             t = t_end if last else t + dt
+            # Post-step passes.  With the vacuum skip they run on the cells below n_act = hi + 2
+            # only: above, ρ = 0 and (after the extension) u is the top material cell's velocity
+            # c, so the extension, the moving average (of c, c, c) and the floor would give every
+            # cell there the same value, which is written directly (bit for bit the same; tested).
+            n_act = N
+            if can_skip and (filt or not (sel_tau > 0.0 and sel2 <= 0.0)):
+                n_act = min(N, hi + 2)
             if positivity:
-                make_positive(rho)
+                make_positive(rho[:n_act])      # ρ = 0 above: neither negative nor a donor
+            top_u = 0.0
             if vac_thr > 0.0:
-                extend_velocity(u, rho, vac_thr)
+                top = extend_velocity(u[:n_act], rho[:n_act], vac_thr)
+                if n_act < N:
+                    if top < 0:
+                        n_act = N               # no material: the whole grid as before
+                    else:
+                        top_u = u[top]
+                        u[n_act] = top_u        # read by the moving average of cell n_act - 1
             if filt:
-                fill_ghosts(u, rho, t, up, rp, G, bcl, bch, xlo, dx, bp)
-                moving_average(u, rho, up, rp, G, bcl)
+                fill_ghosts_below(u, rho, t, up, rp, G, bcl, bch, xlo, dx, bp, n_act + 1)
+                moving_average(u[:n_act], rho[:n_act], up, rp, G, bcl)
+                if n_act < N:
+                    top_u = 0.25 * (top_u + 2.0 * top_u + top_u)
             elif sel_tau > 0.0 and sel2 <= 0.0:
                 fill_ghosts(u, rho, t, up, rp, G, bcl, bch, xlo, dx, bp)
                 umax = 0.0
@@ -542,8 +562,11 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
                 for i in range(min(N, hi + 2)):
                     r = rho[i]
                     rho[i] = 0.0 if abs(r) < rho_floor else r
+            if n_act < N:
+                u[n_act:] = top_u
+            tail = n_act
             steps += 1
-            for i in range(N):
+            for i in range(n_act):              # the tail is finite and ρ = 0 there
                 if not (math.isfinite(u[i]) and math.isfinite(rho[i])):
                     status = 1
                     where = i
