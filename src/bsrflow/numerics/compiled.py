@@ -385,8 +385,10 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
         rp = np.empty(N + 2 * G)
         ku = np.empty((s, N))
         kr = np.empty((s, N))
-        yu = u.copy()          # stage states (initialised: with the vacuum skip the cells above
-        yr = rho.copy()        # the stages' reach keep earlier values, never read)
+        upc = up[G:G + N]      # the stage states are written straight into the padded arrays'
+        rpc = rp[G:G + N]      # interiors (with the vacuum skip the cells above the stages'
+        upc[:] = u             # reach keep earlier values, never read)
+        rpc[:] = rho
         vt = np.empty((s, nt))
         xt = np.empty(nt)
         steps = 0
@@ -445,16 +447,17 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
             # stencil and window), so with the vacuum skip only those cells are copied
             n_copy = min(N, hi + W + 2) if can_skip else N
             for st in range(s):
-                yu[:n_copy] = u[:n_copy]
-                yr[:n_copy] = rho[:n_copy]
+                upc[:n_copy] = u[:n_copy]
+                rpc[:n_copy] = rho[:n_copy]
                 for j in range(st):
                     a = A[st, j]
                     if a != 0.0:
                         for i in range(hi):
-                            yu[i] += dt * a * ku[j, i]
-                            yr[i] += dt * a * kr[j, i]
+                            upc[i] += dt * a * ku[j, i]
+                            rpc[i] += dt * a * kr[j, i]
                 ts = t + c[st] * dt
-                fill_ghosts_below(yu, yr, ts, up, rp, G, bcl, bch, xlo, dx, bp, n_copy)
+                # ghost layers only (from the interior in place: nothing to copy)
+                fill_ghosts_below(upc, rpc, ts, up, rp, G, bcl, bch, xlo, dx, bp, 0)
                 if tracer_mode == 2 or (tracer_mode == 1 and st == 0):
                     for n in range(nt):
                         xt[n] = tracers[n]
