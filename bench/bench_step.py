@@ -13,7 +13,8 @@ steps of the same fixed Δt (the CFL step of that state); csups = cells × stage
 (Σ cell-stages / Σ median times).  "Results unchanged": after the same number of steps from the
 same state, the largest relative difference (max-norm) of u and ρ between the compiled code and
 the NumPy reference, and between the fast and the direct integral.  Timings are medians of
-``--repeats`` runs; compilation is excluded.
+``--repeats`` runs, the three codes' runs interleaved; compilation is excluded.  Both codes run
+the column's own solver settings (``ColumnSetup.simulation``: velocity extension, density floor).
 """
 
 from __future__ import annotations
@@ -70,6 +71,18 @@ def _median_time(fn, repeats):
     return statistics.median(times), times
 
 
+def _interleaved_medians(fns, repeats):
+    """Medians [s] of ``repeats`` timed calls of each function, the functions called in turn
+    (round-robin); returns the medians, then the lists of times."""
+    times = [[] for _ in fns]
+    for _ in range(repeats):
+        for k, fn in enumerate(fns):
+            w = time.perf_counter()
+            fn()
+            times[k].append(time.perf_counter() - w)
+    return (*[statistics.median(x) for x in times], *times)
+
+
 def bench_grid(ppd, repeats, steps_c, steps_r):
     s, states = column_states(ppd)
     per_state = []
@@ -87,10 +100,12 @@ def bench_grid(ppd, repeats, steps_c, steps_r):
         def run(sim, k):
             sim.advance(u0.copy(), r0.copy(), t, t + k * dt)
 
-        tc, tcs = _median_time(lambda: run(fast, steps_c), repeats)
-        td, tds = _median_time(lambda: run(direct, max(1, steps_c // 4)), repeats)
         ref = ReferenceScheme(direct)
-        tr, trs = _median_time(lambda: ref.run_fixed(u0.copy(), r0.copy(), t, dt, steps_r), repeats)
+        # the three codes take turns, so that a drift of the machine's speed during the
+        # measurement (frequent on this virtual machine) does not bias their ratios
+        tc, td, tr, tcs, tds, trs = _interleaved_medians(
+            [lambda: run(fast, steps_c), lambda: run(direct, max(1, steps_c // 4)),
+             lambda: ref.run_fixed(u0.copy(), r0.copy(), t, dt, steps_r)], repeats)
         # results unchanged: the same steps three ways
         ur, rr = ref.run_fixed(u0.copy(), r0.copy(), t, dt, steps_r)
         uc, rc = u0.copy(), r0.copy()
