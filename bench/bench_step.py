@@ -140,8 +140,8 @@ def bench_grid(ppd, repeats, steps_c, steps_r):
 def profile(ppd, repeats):
     """Where a step's time goes, on the 1.3-s state (one core): each piece called as the step
     calls it and as often (the right-hand side and the integral over the cells below the column
-    top hi, the stages' ghost fills below hi + W + 2, the moving average's ghost fill, velocity
-    extension and moving average over the whole grid), in ns
+    top hi, the stages' ghost layers, the moving average's ghost fill, velocity extension and
+    moving average below hi + 2, as ``compiled.advance`` with the vacuum skip), in ns
     per grid cell-stage, beside the whole step.  Each piece is called from Python, which adds a
     dispatch overhead of about 1 µs per call that the step does not pay (visible at ppd10, where
     the pieces then add up to more than the step).  The direct integral over the same cells is
@@ -160,15 +160,16 @@ def profile(ppd, repeats):
     du, dr, out = np.empty(N), np.empty(N), np.empty(N)
     c = sim.core
     kp, bp = sim.model.kernel.params, sim.model.boundary_params
-    fill = lambda: c.fill_ghosts(u, r, t, up, rp, G, 1, 2, 0.0, g.dx, bp)  # noqa: E731
-    fill()
-    n_copy = min(N, hi + W + 2)
+    c.fill_ghosts(u, r, t, up, rp, G, 1, 2, 0.0, g.dx, bp)
+    n_act = min(N, hi + 2)
+    upc, rpc = up[G:G + N], rp[G:G + N]
 
     def fills_of_a_step():
-        """The stages fill below their reach (as compiled.advance), the moving average the grid."""
+        """As compiled.advance: the stages fill the ghost layers only (their state is written
+        into the padded arrays), the moving average copies the cells below hi + 3."""
         for _ in range(stages):
-            c.fill_ghosts_below(u, r, t, up, rp, G, 1, 2, 0.0, g.dx, bp, n_copy)
-        fill()
+            c.fill_ghosts_below(upc, rpc, t, up, rp, G, 1, 2, 0.0, g.dx, bp, 0)
+        c.fill_ghosts_below(u, r, t, up, rp, G, 1, 2, 0.0, g.dx, bp, n_act + 1)
 
     fast = sim.model.kernel.fast_integral
     direct = direct_integral(sim.model.kernel.compiled)
@@ -181,8 +182,8 @@ def profile(ppd, repeats):
                                                  sim.model.gravity, sim.model.external_params,
                                                  sim.model.motion.params, du, dr, 1, 0.0, sim.kappa, r,
                                                  sim.vacuum_density, 0.0, 0.0), stages),
-        "extend_velocity": (lambda: c.extend_velocity(uu, r, sim.vacuum_density), 1),
-        "moving_average": (lambda: c.moving_average(uu, rr, up, rp, G, 1), 1),
+        "extend_velocity": (lambda: c.extend_velocity(uu[:n_act], r[:n_act], sim.vacuum_density), 1),
+        "moving_average": (lambda: c.moving_average(uu[:n_act], rr[:n_act], up, rp, G, 1), 1),
         "integral_fast": (lambda: fast(up, rp, G, hi, W, sim.qz, sim.qw, kp, out), stages),
         "integral_direct": (lambda: direct(up, rp, G, hi, W, sim.qz, sim.qw, kp, out), stages),
         # the fast integral's O(1)-per-cell pass alone (classes, elastic sums, factors); the rest
