@@ -371,11 +371,15 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
         cells a stage's stencil reaches).  Above, ρ stays exactly 0 during the step and the velocities there are
         overwritten by the extension after it; the dissipations' speed and the adaptive error
         norm of u use the material cells only (ρ >= vac_thr), so they are the same either way.
+        The post-step passes (positivity fix, velocity extension, moving average, finiteness
+        check) then run below hi + 2 and the uniform velocity above is written directly.
         Tested to give the same result bit for bit through a tap (fixed and adaptive steps, with
         both dissipations).  One caveat: the fast interaction integral chooses its summation
         path from the velocities in a cell's whole window, vacuum included; where the skipped
         and the computed stage velocities of vacuum cells would select different paths, the two
         results differ at round-off (the value is the same sum).
+
+        rho_floor > 0: |ρ| below it is set to 0 at the end of every step (vacuum debris).
         """
         N = u.size
         G = max(W, 2)
