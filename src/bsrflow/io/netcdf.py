@@ -45,8 +45,10 @@ variables one after another, so a kill between two of them leaves the last snaps
 incomplete: some variables hold it, the others end one row earlier, and a netCDF reader (whose
 time dimension is the longest variable) shows their missing value as the fill value NaN.  Every
 earlier snapshot is complete.  Measured with back-to-back appends (the flush is then most of the
-time): 1 of 160 kills in a stress run, and once in a CI run of the test's 6 kills; in a run,
-where appends take a small part of the time, correspondingly rarer.  :func:`read_snapshots` (and so ``--resume``) keeps complete snapshots only.
+time; ``bench/check_kill_rate.py``): 1 of 160 kills, and once in a CI run of the test's 6
+kills.  In a simulation the appends take a small part of the time, so a kill should land in a
+flush less often; that rate was not measured.  :func:`read_snapshots` (and so ``--resume``)
+keeps complete snapshots only.
 
 ``tests/test_run_io.py`` kills writers at random moments and opens every file left behind.
 """
@@ -279,7 +281,8 @@ def read_snapshots(path):
     with h5py.File(os.fspath(path), "r", locking=False) as h:
         n = min(h[k].shape[0] for k in _TIME_VARS)       # equal unless a write was cut short
         # a last snapshot cut short inside the flush can also show as the fill value NaN in a
-        # value that a complete snapshot never leaves NaN
+        # value that a complete snapshot never leaves NaN (not top and mass_centre: those are
+        # NaN in a complete snapshot of a run without tracers or without mass)
         while n > 0 and not all(np.all(np.isfinite(h[k][n - 1]))
                                 for k in ("time", "floor", "mass", "kinetic_energy", "rho", "u",
                                           "tracer_height")):

@@ -374,7 +374,11 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
         The post-step passes (positivity fix, velocity extension, moving average, finiteness
         check) then run below hi + 2 and the uniform velocity above is written directly.
         Tested to give the same result bit for bit through a tap (fixed and adaptive steps, with
-        both dissipations).  One caveat: the fast interaction integral chooses its summation
+        both dissipations).  The skip needs material (ρ >= vac_thr) at the start of the step,
+        since only then does the extension overwrite the vacuum velocities; without any the
+        whole grid is computed.  Caveats: if the last material cell drops below vac_thr during
+        a step, the skipped cells' velocities (of empty cells) differ from the computed ones at
+        that step.  And the fast interaction integral chooses its summation
         path from the velocities in a cell's whole window, vacuum included; where the skipped
         and the computed stage velocities of vacuum cells would select different paths, the two
         results differ at round-off (the value is the same sum).
@@ -404,11 +408,19 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
         can_skip = skip_vacuum and vac_thr > 0.0 and bch == 2
         reach = 2 if (hyper > 0.0 or sel2 > 0.0) else 1
         hi = N
+        # the skip is exact only when the extension will overwrite the vacuum's velocities:
+        # there is material at the start of the step (kept up to date from the extension)
+        material = False
+        if can_skip:
+            for i in range(N):
+                if rho[i] >= vac_thr:
+                    material = True
+                    break
         # tail: u[tail:] all equal u[N-1] and ρ[tail:] = 0 (set by the restricted post-step
         # passes below; N: nothing known), so that whole-grid maxima need not read it
         tail = N
         while t < t_end:
-            if can_skip:
+            if can_skip and material:
                 # ρ = 0 above the previous step's hi + 1 (the stages leave it at 0 there and the
                 # moving average spreads it by one cell), so the search starts there
                 z = 0
@@ -421,6 +433,8 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
                     if q > z:
                         z = q
                 hi = min(N, z + 2 * reach * s + 2)
+            else:
+                hi = N
             if dt_fixed > 0.0:
                 dt = dt_fixed
             else:
@@ -534,13 +548,14 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
             # c, so the extension, the moving average (of c, c, c) and the floor would give every
             # cell there the same value, which is written directly (bit for bit the same; tested).
             n_act = N
-            if can_skip and (filt or not (sel_tau > 0.0 and sel2 <= 0.0)):
+            if can_skip and hi < N and (filt or not (sel_tau > 0.0 and sel2 <= 0.0)):
                 n_act = min(N, hi + 2)
             if positivity:
                 make_positive(rho[:n_act])      # ρ = 0 above: neither negative nor a donor
             top_u = 0.0
             if vac_thr > 0.0:
                 top = extend_velocity(u[:n_act], rho[:n_act], vac_thr)
+                material = top >= 0
                 if n_act < N:
                     if top < 0:
                         n_act = N               # no material: the whole grid as before

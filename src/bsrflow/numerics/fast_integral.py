@@ -60,8 +60,9 @@ ANCHOR = 64
 _NV = 3
 BLOCK = 4 * _NV
 """Cells per block of the vectorised friction sum (``_NV`` AVX vectors of 4 cells; three
-vectors keep six independent chains of fused multiply-adds in flight, measured 8-10 % faster
-than two on the column at W = 40, with the same sums bit for bit)."""
+vectors keep six independent chains of fused multiply-adds in flight: 3-6 % less time in the
+integral than two on the column states at W = 40, in-process A/B, with the same sums bit for
+bit)."""
 
 
 @intrinsic

@@ -212,8 +212,9 @@ class Simulation:
     integral_fn : a compiled whole-array interaction integral to use instead (overrides
         ``integral``).
     skip_vacuum : do not update the empty cells above a column during the stages (needs a
-        vacuum top and ``vacuum_density`` > 0; see ``compiled.make_core``'s ``advance``); the
-        result is bit-for-bit the same.
+        vacuum top and ``vacuum_density`` > 0; a step without material, ρ >= vacuum_density,
+        computes the whole grid).  The result is the same, bit for bit in the tests through a
+        tap; the two round-off-level caveats are in ``compiled.make_core``'s ``advance``.
     density_floor : at the end of every step, densities with |ρ| below this [kg/m] are set to 0
         (0: off, the default; must be below ``vacuum_density`` when that is set).  The moving
         average spreads ρ by one cell per step, so without a floor an exponentially small
