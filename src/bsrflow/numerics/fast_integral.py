@@ -23,8 +23,11 @@ with b_k = w_k (R - |z_k|) the quadrature weight times the kernel's hat [m²].  
   round-off cannot accumulate.  Other rules: an O(W) loop per cell.
 * **Friction part in O(1) where u is monotone over the window**: strictly increasing u gives
   σ(u_{i±k} - u_i) = ±1 and V_i = E_i; strictly decreasing gives V_i = -E_i; constant u
-  (e.g. the extended velocity above a column) gives V_i = 0.  Monotonicity is tracked with
-  the last index at which d_j = u_{j+1} - u_j breaks each property, O(1) per cell.
+  (e.g. the extended velocity above a column) gives V_i = 0.  Monotonicity is decided from
+  counts over the window of the nodes at which d_j = u_{j+1} - u_j breaks each property (and
+  of the nodes with ρ != 0), four 16-bit counters packed in one integer and slid exactly from
+  cell to cell, O(1) per cell (``_classify_scaled_elastic``; ``_classify`` finds the same
+  classes with trackers of the last breaking node, and the tests check that they agree).
 * Elsewhere (the velocity is not monotone over the window: near extrema, at rest with
   round-off chatter) V_i = Σ_{k≠0} b_|k| ρ_{i+k} [u_{i+k} > u_i] - Σ_{k≠0} b_|k| ρ_{i+k} [u_{i+k} < u_i]
   (exact ties give 0), computed for ``BLOCK`` consecutive cells at once: the cells are the
@@ -35,8 +38,9 @@ with b_k = w_k (R - |z_k|) the quadrature weight times the kernel's hat [m²].  
 
 The passes: classify every cell (empty / constant / increasing / decreasing / other), E_i for
 every cell, I_i = o λ f_c E_i with f = 0, 1, 1-ε, 1+ε, 1 for the classes (for the trapezoidal
-rule these three are one pass, ``_classify_scaled_elastic``), then on each run of cells of the
-last class I_i -= o λ ε V_i.
+rule ``_classify_scaled_elastic`` does these in three loops: node flags, elementwise; one
+serial loop for the sliding sums and counts; classes and factors, elementwise), then on each
+run of cells of the last class I_i -= o λ ε V_i.
 
 The result equals the direct sum up to round-off (the terms are added in a different order):
 ``tests/test_fast_integral.py`` checks this on random, monotone, piecewise-constant and
@@ -234,27 +238,87 @@ def _classify(up, rp, G, N, W, cls):
         cls[i] = c
 
 
+_ONE_INC = np.int64(1)
+_ONE_DEC = np.int64(1) << 16
+_ONE_NEQ = np.int64(1) << 32
+_ONE_NZ = np.int64(1) << 48
+_FIELD = np.int64(0xFFFF)
+
+
+@numba.njit(cache=True)
+def _node_flags(up, rp, j0, n, flags):
+    """flags[k], node j = j0 + k (k < n): four 16-bit counters packed in an int64, each 0 or 1:
+    [d_j <= 0] (breaks strict increase), [d_j >= 0] << 16 (breaks strict decrease),
+    [d_j != 0] << 32 (breaks constancy), d_j = u_{j+1} - u_j, and [ρ_j != 0] << 48.
+    Elementwise (vectorised by the compiler; unsigned indices avoid wrap-around code)."""
+    u64 = np.uint64
+    for k in range(u64(n)):
+        j = u64(j0) + k
+        d = up[j + u64(1)] - up[j]
+        f = _ONE_INC if d <= 0.0 else np.int64(0)
+        f += _ONE_DEC if d >= 0.0 else np.int64(0)
+        f += _ONE_NEQ if d != 0.0 else np.int64(0)
+        f += _ONE_NZ if rp[j] != 0.0 else np.int64(0)
+        flags[k] = f
+
+
 @numba.njit(cache=True)
 def _classify_scaled_elastic(up, rp, G, N, W, beta, fac, cls, out):
-    """One pass over the cells for the trapezoidal rule (b_k = β (W - k)): cls[i] as
-    :func:`_classify` and out[i] = fac[cls[i]] E_i (0 for an empty window), E_i = β (A_i - B_i)
-    with the triangular window sums A_i = Σ (W-k) ρ_{i+k}, B_i = Σ (W-k) ρ_{i-k} slid from cell
-    to cell (:func:`_elastic_slide`) and re-computed from scratch every ANCHOR cells, so that
-    round-off cannot accumulate."""
-    no_inc, no_dec, no_eq, nz = _class_start(up, rp, G, W)
+    """For the trapezoidal rule (b_k = β (W - k)): cls[i] as :func:`_classify` and
+    out[i] = fac[cls[i]] E_i (0 for an empty window), E_i = β (A_i - B_i), in three loops:
+
+    1. node flags (:func:`_node_flags`, elementwise);
+    2. one serial pass: the triangular window sums A_i = Σ (W-k) ρ_{i+k}, B_i = Σ (W-k) ρ_{i-k}
+       slid from cell to cell (:func:`_elastic_slide`, re-computed from scratch every ANCHOR
+       cells so that round-off cannot accumulate), and the window's packed flag counts
+       S_i = Σ_{j=ii-W}^{ii+W-1} flags_j slid exactly in integers (counts <= 2W+1 < 2^16);
+    3. elementwise: the class from the counts (no break of a property in the window, or no
+       ρ != 0 on its 2W+1 nodes) and the class factor times E_i.
+
+    The classes equal :func:`_classify`'s (its trackers test the same predicates; tested) and
+    E_i is the same expression as before, so the result is the same bit for bit."""
+    u64 = np.uint64
+    n_nodes = N + 2 * W                  # nodes G - W .. G + N + W - 1
+    work = np.empty(n_nodes + N, dtype=np.int64)
+    flags = work[:n_nodes]               # flags[k]: node G - W + k
+    counts = work[n_nodes:]
+    _node_flags(up, rp, G - W, n_nodes - 1, flags)
+    # the last node's d_j is never used (and u_{j+1} may lie past the array): ρ flag only
+    flags[n_nodes - 1] = _ONE_NZ if rp[G + N + W - 1] != 0.0 else np.int64(0)
+    S = np.int64(0)
+    for k in range(2 * W):
+        S += flags[k]
     w1 = W - 1.0
     i0 = 0
     while i0 < N:
         i1 = min(N, i0 + ANCHOR)
         A, U, B, L = _window_sums(rp, G + i0, W)
-        for i in range(np.uint64(i0), np.uint64(i1)):
-            ii = np.uint64(G) + i
-            no_inc, no_dec, no_eq, nz, c = _class_next(up, rp, ii, W, no_inc, no_dec, no_eq, nz)
-            cls[i] = c
-            e = fac[c] * (beta * (A - B))
-            out[i] = e if c != 0 else 0.0
-            A, U, B, L = _elastic_slide(rp, ii, W, w1, A, U, B, L)
+        for i in range(u64(i0), u64(i1)):
+            out[i] = beta * (A - B)
+            counts[i] = S
+            S += flags[i + u64(2 * W)] - flags[i]
+            A, U, B, L = _elastic_slide(rp, u64(G) + i, W, w1, A, U, B, L)
         i0 = i1
+    f1 = fac[1]
+    f2 = fac[2]
+    f3 = fac[3]
+    f4 = fac[4]
+    nz_field = _FIELD << 48
+    for i in range(u64(N)):
+        # the window's ρ nodes reach one node further than its d nodes (node ii + W)
+        C = counts[i] + (flags[i + u64(2 * W)] & nz_field)
+        c = 4
+        c = 3 if ((C >> 16) & _FIELD) == 0 else c
+        c = 2 if (C & _FIELD) == 0 else c
+        c = 1 if ((C >> 32) & _FIELD) == 0 else c
+        c = 0 if (C >> 48) == 0 else c
+        cls[i] = c
+        f = f4
+        f = f3 if c == 3 else f
+        f = f2 if c == 2 else f
+        f = f1 if c == 1 else f
+        e = f * out[i]
+        out[i] = e if c != 0 else 0.0
 
 
 @numba.njit(cache=True)
