@@ -342,7 +342,8 @@ def walton_braun_integral(up, rp, G, N, W, qz, qw, kp, out):
         bs[k + W] = bb[k + W] * (1.0 if k > 0 else -1.0) if k != 0 else 0.0
     # linear weights (trapezoidal rule): b_k = β (W - k)
     beta = b[1] / (W - 1) if W > 1 else 0.0
-    linear = W > 1
+    # (the one-pass classes count window nodes in 16-bit fields: 2W + 1 < 2^16)
+    linear = 1 < W < 32767
     for k in range(1, W + 1):
         if abs(b[k] - beta * (W - k)) > 1e-12 * abs(beta) * W:
             linear = False
