@@ -45,8 +45,8 @@ variables one after another, so a kill between two of them leaves the last snaps
 incomplete: some variables hold it, the others end one row earlier, and a netCDF reader (whose
 time dimension is the longest variable) shows their missing value as the fill value NaN.  Every
 earlier snapshot is complete.  Measured with back-to-back appends (the flush is then most of the
-time; ``bench/check_kill_rate.py``): 1 of 160 kills, and once in a CI run of the test's 6
-kills.  In a simulation the appends take a small part of the time, so a kill should land in a
+time; ``bench/check_kill_rate.py``): 1 and 0 incomplete in two runs of 160 kills, and once in
+a CI run of the test's 6 kills.  In a simulation the appends take a small part of the time, so a kill should land in a
 flush less often; that rate was not measured.  :func:`read_snapshots` (and so ``--resume``)
 keeps complete snapshots only.
 
