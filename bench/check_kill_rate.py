@@ -12,9 +12,9 @@ the kill cut short; ``bsrflow.io.netcdf`` module docstring).  It also checks tha
 earlier snapshot than the last is incomplete or the reader returns an incomplete one.
 
 Measured 2026-11-23 on the 2-core VM: 1 incomplete of 160 kills (an earlier version of this
-script), and 0 of 160 with this one (2 min 50 s; the files hold 1-93 snapshots, median 36).  Back-to-back
-appends are the worst case: in a
-simulation the appends take a small part of the time; the rate there was not measured.
+script), and 0 of 160 with this one (2 min 50 s; the files hold 1-93 snapshots, median 36).
+Back-to-back appends are the worst case: in a simulation the appends take a small part of the
+time; the rate there was not measured.
 """
 
 from __future__ import annotations
