@@ -218,8 +218,8 @@ def test_density_floor_leaves_the_material_unchanged():
     material = b.rho >= 1e-4 * line
     assert np.array_equal(a.u[material], b.u[material])
     # ρ differs only in vacuum cells (below 1e-4 m/d in both runs), at round-off of those cells'
-    # own values: 5.2 floors measured in this small case (bound 100 floors holds here only; at
-    # 40 ppd a vacuum cell of 1.2e-11 m/d differs by up to 2656 floors, see docs/model.md)
+    # own values: 5.2 floors measured in this small case (the bound of 100 floors holds here
+    # only; larger and longer runs differ by more floors in fuller vacuum cells, docs/model.md)
     differ = a.rho != b.rho
     assert np.all(np.maximum(np.abs(a.rho), np.abs(b.rho))[differ] < 1e-4 * line)
     assert np.max(np.abs(a.rho - b.rho)) <= 100 * 1e-30 * line
