@@ -555,7 +555,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
             # c, so the extension, the moving average (of c, c, c) and the floor would give every
             # cell there the same value, which is written directly (bit for bit the same; tested).
             n_act = N
-            if can_skip and hi < N and (filt or not (sel_tau > 0.0 and sel2 <= 0.0)):
+            if can_skip and (filt or not (sel_tau > 0.0 and sel2 <= 0.0)):
                 n_act = min(N, hi + 2)
             if positivity:
                 make_positive(rho[:n_act])      # ρ = 0 above: neither negative nor a donor
