@@ -29,6 +29,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import bench_step  # noqa: E402
+from _args import positive_int  # noqa: E402
 
 from bsrflow.numerics.solver import Scheme  # noqa: E402
 from bsrflow.physics.model import jit_user  # noqa: E402
@@ -57,14 +58,11 @@ def _load_ref(ref, tmp):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--ref", required=True, help="the earlier commit (any git revision)")
-    ap.add_argument("--ppd", type=int, default=40, help="grid points per diameter (default 40)")
+    ap.add_argument("--ppd", type=positive_int, default=40, help="grid points per diameter (default 40)")
     ap.add_argument("--scheme", default="seed", help="scheme preset (default seed)")
-    ap.add_argument("--repeats", type=int, default=15, help="timed repeats per state (default 15)")
-    ap.add_argument("--steps", type=int, default=50, help="steps per repeat (default 50)")
+    ap.add_argument("--repeats", type=positive_int, default=15, help="timed repeats per state (default 15)")
+    ap.add_argument("--steps", type=positive_int, default=50, help="steps per repeat (default 50)")
     args = ap.parse_args(argv)
-    for name in ("ppd", "repeats", "steps"):
-        if getattr(args, name) < 1:
-            ap.error(f"--{name} = {getattr(args, name)} outside the valid range [1, inf)")
     numba.set_num_threads(1)
     try:
         tmp = tempfile.mkdtemp(prefix="bsrflow_ab_")

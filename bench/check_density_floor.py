@@ -13,6 +13,7 @@ density difference in material cells [kg/m], and the largest density difference 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 import numpy as np
@@ -20,17 +21,16 @@ import numpy as np
 from bsrflow.numerics.solver import Scheme
 from bsrflow.physics.column import ColumnSetup, initial_density
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from _args import positive_float, positive_int  # noqa: E402
+
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--ppd", type=int, default=10, help="grid points per diameter (default 10)")
+    ap.add_argument("--ppd", type=positive_int, default=10, help="grid points per diameter (default 10)")
     ap.add_argument("--scheme", default="seed", help="scheme preset (default seed)")
-    ap.add_argument("--t-end", type=float, default=2.0, help="simulated time [s] (default 2.0)")
+    ap.add_argument("--t-end", type=positive_float, default=2.0, help="simulated time [s] (default 2.0)")
     args = ap.parse_args(argv)
-    if args.ppd < 1:
-        ap.error(f"--ppd = {args.ppd} outside the valid range [1, inf)")
-    if not args.t_end > 0:
-        ap.error(f"--t-end = {args.t_end} outside the valid range (0, inf)")
     s = ColumnSetup(points_per_diameter=args.ppd).with_(t_end=args.t_end)
     line = s.particle_mass / s.diameter
     runs = []

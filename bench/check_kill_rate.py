@@ -30,6 +30,9 @@ import time
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from _args import positive_int  # noqa: E402
+
 WRITER = textwrap.dedent("""
     import sys
     import numpy as np
@@ -57,12 +60,10 @@ def main(argv=None) -> int:
     from bsrflow.io.netcdf import read_snapshots
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--kills", type=int, default=160, help="number of writers to kill (default 160)")
+    ap.add_argument("--kills", type=positive_int, default=160, help="number of writers to kill (default 160)")
     ap.add_argument("--dir", default="out/kill_rate", help="where the files go (default out/kill_rate)")
     ap.add_argument("--seed", type=int, default=11, help="seed of the kill moments (default 11)")
     args = ap.parse_args(argv)
-    if args.kills < 1:
-        ap.error(f"--kills = {args.kills} outside the valid range [1, inf)")
     os.makedirs(args.dir, exist_ok=True)
     rnd = random.Random(args.seed)
     incomplete_last = 0
