@@ -34,7 +34,7 @@ def _relerr(a, b):
 
 
 @pytest.mark.parametrize("bcs", CASES)
-@pytest.mark.parametrize("stepper", ["euler", "heun", "kutta3", "rk4"])
+@pytest.mark.parametrize("stepper", ["euler", "heun", "kutta3", "rk4", "rk4_0.4_0.25"])
 @pytest.mark.parametrize("filt, hyper, sel, k2", [(False, 0.0, 0.0, 0.0), (True, 0.0, 0.0, 0.0),
                                                   (False, 1 / 32, 0.0, 0.0), (False, 1 / 32, 0.02, 0.0),
                                                   (False, 1 / 32, 0.02, 0.5), (False, 0.0, 0.3, 1.0)])

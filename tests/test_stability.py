@@ -40,7 +40,7 @@ def _advect(stepper, filt, nu, rho0, steps):
 
 # -- (a) analytic checks --------------------------------------------------------------------
 def test_stability_polynomials_are_taylor():
-    for name, order in (("euler", 1), ("heun", 2), ("kutta3", 3), ("rk4", 4)):
+    for name, order in (("euler", 1), ("heun", 2), ("kutta3", 3), ("rk4", 4), ("rk4_0.4_0.25", 4)):
         r = stab.stability_polynomial_coefficients(name)
         assert [float(x) for x in r] == [1.0 / math.factorial(k) for k in range(order + 1)]
 

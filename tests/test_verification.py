@@ -61,35 +61,38 @@ def test_verify_cli_writes_json(tmp_path):
 
 
 def test_accurate_preset_orders():
-    """'accurate' (Kutta's RK3, no moving average, dissipations inside the RHS): >= 2 in space at
-    fixed CFL; in time, on a fixed grid and with the whole semi-discrete system (sensor
-    dissipation and positivity included), the order of its third-order stepper.  Note: the
-    observed least-squares time order is 2.98, just under 3; the pairwise orders rise towards 3
-    (2.97, 2.98, 2.99), as the error C Δt³ (1 + a Δt) of any third-order method does when a < 0.
-    Issue #5 asks for >= 3; that literal bound is not met (see README, Schemes)."""
+    """'accurate' (the four-stage fourth-order rk4_0.4_0.25, no moving average, dissipations
+    inside the RHS): >= 2 in space at fixed CFL; in time, on a fixed grid and with the whole
+    semi-discrete system (sensor dissipation and positivity included), at least 3 (issue #5):
+    the fourth order of its stepper.  The previous preset's Kutta RK3 gave 2.98 here (pairwise
+    2.97, 2.98, 2.99: third order approached from below)."""
     acc = Scheme.preset("accurate")
+    assert acc.stepper == "rk4_0.4_0.25"
     space = verify.case_example_b(acc, resolutions=(32, 64, 128))
     time_ = verify.case_smooth_time(dict(stepper=acc.stepper, filter=False, hyperdiffusion=acc.hyperdiffusion,
                                          selective_filter=acc.selective_filter,
                                          sensor_dissipation=acc.sensor_dissipation, positivity=acc.positivity),
-                                    steps=(64, 128, 256, 512))
+                                    steps=(64, 128, 256))
     assert space["observed_order"] >= 1.95
-    pw = time_["pairwise_orders"]
-    assert 2.95 < time_["observed_order"] < 3.05
-    assert all(b > a for a, b in zip(pw, pw[1:])) and pw[-1] > 2.99     # converging to 3 from below
+    assert time_["observed_order"] >= 3.0
+    assert min(time_["pairwise_orders"]) > 3.8      # fourth order
 
 
 def test_friction_switch_makes_every_stepper_first_order_in_time():
-    """The smooth problem with the kernel's friction switch on (ε = 0.3): the preset's RK3 and
-    classical RK4 are both first order in Δt (why a higher-order stepper does not pay on the
-    tapped column), while without it RK4 is fourth order."""
+    """The smooth problem with the kernel's friction switch on (ε = 0.3): the preset's
+    rk4_0.4_0.25, Kutta's RK3 and classical RK4 are all first order in Δt, while without the
+    switch the RK4 members are fourth order.  The preset's member has the smallest error
+    constant of the three (measured 0.65x Kutta's RK3 and 0.73x classical RK4 at 512 steps)."""
     acc = Scheme.preset("accurate")
     kw = dict(filter=False, hyperdiffusion=acc.hyperdiffusion, selective_filter=acc.selective_filter,
               sensor_dissipation=acc.sensor_dissipation, positivity=acc.positivity)
-    for stepper in ("kutta3", "rk4"):
+    last = {}
+    for stepper in ("rk4_0.4_0.25", "kutta3", "rk4"):
         case = verify.case_smooth_time(dict(kw, stepper=stepper), dissipation=0.3)
         assert case["kernel_dissipation"] == 0.3
         assert 0.8 < case["observed_order"] < 1.3, (stepper, case["observed_order"])
+        last[stepper] = case["errors"][-1]
+    assert last["rk4_0.4_0.25"] < 0.8 * min(last["kutta3"], last["rk4"])
     smooth = verify.case_smooth_time(dict(kw, stepper="rk4"))
     assert smooth["observed_order"] > 3.8
 

@@ -68,10 +68,11 @@ CFL_LIMITS: dict[tuple[str, bool], float] = {
 """Largest stable Courant number ν = max(|u|+c) Δt/Δx of the scheme as implemented (central
 differences in every Runge-Kutta stage; ``bsrflow stability``, README "Stability"), keyed by
 (stepper, moving average after every step).  0: unstable at every ν.  ``bs32`` has the stability
-polynomial of every 3-stage 3rd-order method, so its limits are those of ``kutta3``."""
+polynomial of every 3-stage 3rd-order method, so its limits are those of ``kutta3``;
+``rk4_0.4_0.25`` that of every 4-stage 4th-order method, so its limits are those of ``rk4``."""
 
-_STEPPER_ALIASES = {"rk3": "kutta3", "bs32": "kutta3"}   # for the stability limit only
-_STEPPERS = ("euler", "heun", "kutta3", "rk3", "rk4", "bs32")
+_STEPPER_ALIASES = {"rk3": "kutta3", "bs32": "kutta3", "rk4_0.4_0.25": "rk4"}   # for the stability limit only
+_STEPPERS = ("euler", "heun", "kutta3", "rk3", "rk4", "bs32", "rk4_0.4_0.25")
 _EMBEDDED = ("heun", "kutta3", "rk3", "bs32")
 _SCHEMES = ("seed", "accurate")
 _MAX_SNAPSHOTS = 1_000_000
@@ -174,7 +175,8 @@ FIELDS: tuple[_Field, ...] = (
            "t_end)", "s", 0, None),
     # [numerics]
     _Field("numerics", "scheme", "str", "seed", "scheme preset: \"seed\" (Kutta RK3 + moving "
-           "average every step, CFL 0.5) or \"accurate\" (RK3, CFL 0.1, sensor-switched dissipation)",
+           "average every step, CFL 0.5) or \"accurate\" (four-stage RK4 rk4_0.4_0.25, CFL 0.2, "
+           "sensor-switched dissipation)",
            choices=_SCHEMES),
     _Field("numerics", "points_per_diameter", "int", 10, "grid cells per sphere diameter (the "
            "interaction radius d must span at least 2 cells)", "", 2, 1000),
@@ -478,7 +480,7 @@ class Config:
         if limit == 0.0:
             raise ConfigError("numerics.stepper", f'"{stepper}" without the moving average (scheme '
                               f'"{v["numerics.scheme"]}") is unstable at every CFL number; valid '
-                              'values: "kutta3", "rk4", "bs32", or scheme = "seed"', stepper)
+                              'values: "kutta3", "rk4", "bs32", "rk4_0.4_0.25", or scheme = "seed"', stepper)
         cfl = v["numerics.cfl"] if v["numerics.cfl"] is not None else preset.cfl
         if cfl > limit:
             f = _BY_NAME["numerics.cfl"]
@@ -629,7 +631,7 @@ class Config:
                     rng = "0 (off) or (0, t_end] s"
                 elif f.name == "numerics.cfl":
                     rng = ("(0, limit]: euler 0.7071, heun 1.5289, kutta3/bs32 2.3388, rk4 3.1010 with "
-                           "the moving average (seed); kutta3/bs32 1.7321, rk4 2.8284 without (accurate)")
+                           "the moving average (seed); kutta3/bs32 1.7321, rk4/rk4_0.4_0.25 2.8284 without (accurate)")
                 lines.append(f"# {f.doc}{unit}; valid: {rng}")
                 val = self._values[f.name]
                 if val is None:
