@@ -76,9 +76,9 @@ REFERENCES = {
     "independent": (lambda: Scheme.preset("accurate", stepper="bs32", cfl=0.8, rtol=1e-2,
                                           atol=(1e-3, 1e-3 * _LINE)), 40),
     "seed_own": (lambda: Scheme.preset("seed"), REF_PPD),
-    "previous_preset": (lambda: Scheme.preset("accurate", stepper="rk4", sensor_dissipation=0.0, cfl=0.025), REF_PPD),
+    "older_preset": (lambda: Scheme.preset("accurate", stepper="rk4", sensor_dissipation=0.0, cfl=0.025), REF_PPD),
 }
-OTHER_REFS = ("converged", "previous_preset", "seed_own")
+OTHER_REFS = ("converged", "older_preset", "seed_own")
 
 
 def run(scheme, ppd, perturb=0.0, repeats=1):
@@ -135,13 +135,13 @@ def main(argv=None):
         print(f"reference {name:12s} ppd {ppd}: {res.steps} steps, {wall:.1f} s", flush=True)
     unc = errors(refs["independent"], ref_ppd["independent"], refs["converged"], REF_PPD)
     seed_off = errors(refs["seed_own"], REF_PPD, refs["converged"], REF_PPD)
-    prev_off = errors(refs["previous_preset"], REF_PPD, refs["converged"], REF_PPD)
+    prev_off = errors(refs["older_preset"], REF_PPD, refs["converged"], REF_PPD)
     out["reference_uncertainty"] = unc
     out["seed_own_reference_vs_converged"] = seed_off
-    out["previous_preset_reference_vs_converged"] = prev_off
+    out["older_preset_reference_vs_converged"] = prev_off
     print("reference uncertainty (independent vs converged): " + ", ".join(f"{k} {v:.2e}" for k, v in unc.items()))
     print("seed's own 80-ppd solution vs converged:          " + ", ".join(f"{k} {v:.2e}" for k, v in seed_off.items()))
-    print("previous preset's 80-ppd solution vs converged:   " + ", ".join(f"{k} {v:.2e}" for k, v in prev_off.items()))
+    print("older preset's 80-ppd solution vs converged:      " + ", ".join(f"{k} {v:.2e}" for k, v in prev_off.items()))
     if not args.quick:
         _, pert, _ = run(REFERENCES["converged"][0](), REF_PPD, perturb=1e-14)
         out["chaos_floor"] = errors(pert, REF_PPD, refs["converged"], REF_PPD)

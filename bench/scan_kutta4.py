@@ -37,10 +37,9 @@ from bsrflow.numerics.solver import Scheme  # noqa: E402
 
 def _floats(text, name):
     try:
-        vals = [float(v) for v in text.split(",")]
+        return [float(v) for v in text.split(",")]
     except ValueError:
         raise SystemExit(f"--{name} = {text!r} is not a comma-separated list of numbers") from None
-    return vals
 
 
 def main(argv=None) -> int:
@@ -48,19 +47,23 @@ def main(argv=None) -> int:
     ap.add_argument("--nodes", default="0.2,0.3,0.333,0.4,0.6,0.7,0.8",
                     help="values tried for both c2 and c3, each in (0, 1) (default 0.2,0.3,0.333,0.4,0.6,0.7,0.8)")
     ap.add_argument("--ppd", default="10,20", help="grids, points per diameter >= 2 (default 10,20)")
-    ap.add_argument("--cfl", type=float, default=0.1, help="Courant number in (0, 2.8284] (default 0.1)")
+    ap.add_argument("--cfl", type=float, default=0.1,
+                    help="Courant number in (0, 1.7321], the limit of the Kutta RK3 row (default 0.1)")
     ap.add_argument("--perturb", type=float, default=0.0,
                     help="relative perturbation of the initial density, in [0, 1e-3] (default 0)")
     ap.add_argument("--json", default=None, help="also write the table as JSON")
     args = ap.parse_args(argv)
     nodes = _floats(args.nodes, "nodes")
-    ppds = [int(p) for p in _floats(args.ppd, "ppd")]
+    try:
+        ppds = [int(p) for p in args.ppd.split(",")]
+    except ValueError:
+        ap.error(f"--ppd = {args.ppd!r} is not a comma-separated list of integers")
     if not all(0 < v < 1 for v in nodes):
         ap.error(f"--nodes = {args.nodes!r}: every node must be in (0, 1)")
     if not all(p >= 2 for p in ppds):
         ap.error(f"--ppd = {args.ppd!r}: every grid needs at least 2 points per diameter")
-    if not 0 < args.cfl <= 2.8284:
-        ap.error(f"--cfl = {args.cfl!r} is outside the valid range (0, 2.8284]")
+    if not 0 < args.cfl <= 1.7321:
+        ap.error(f"--cfl = {args.cfl!r} is outside the valid range (0, 1.7321] (Kutta's RK3 row)")
     if not 0 <= args.perturb <= 1e-3:
         ap.error(f"--perturb = {args.perturb!r} is outside the valid range [0, 1e-3]")
     numba.set_num_threads(1)

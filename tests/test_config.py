@@ -110,6 +110,14 @@ def test_cfl_limits_are_enforced_per_stepper():
         Config.from_dict(merged(numerics={"scheme": scheme, "stepper": stepper, "cfl": limit}))
         with pytest.raises(ConfigError, match=r"^numerics.cfl: .*stability limit"):
             Config.from_dict(merged(numerics={"scheme": scheme, "stepper": stepper, "cfl": limit * 1.001}))
+    # steppers that share another's stability polynomial use its limits (the accurate preset's
+    # rk4_0.4_0.25 those of rk4, bs32 those of kutta3)
+    for alias, base in (("rk4_0.4_0.25", "rk4"), ("bs32", "kutta3")):
+        for scheme, filt in (("seed", True), ("accurate", False)):
+            limit = CFL_LIMITS[(base, filt)]
+            Config.from_dict(merged(numerics={"scheme": scheme, "stepper": alias, "cfl": limit}))
+            with pytest.raises(ConfigError, match=r"^numerics.cfl: .*stability limit"):
+                Config.from_dict(merged(numerics={"scheme": scheme, "stepper": alias, "cfl": limit * 1.001}))
 
 
 # -- invalid configs through `bsrflow run` --------------------------------------------------------

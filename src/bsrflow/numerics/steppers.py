@@ -73,7 +73,7 @@ def kutta4_family(c2, c3):
     """
     u, v = c2, c3
     den = 6 * u * v - 4 * (u + v) + 3
-    if u == v or u in (0, 1) or v in (0, 1) or 2 * u == 1 or den == 0:
+    if u == v or not (0 < u < 1 and 0 < v < 1) or 2 * u == 1 or den == 0:
         raise ValueError(f"kutta4_family: nodes c2 = {c2!r}, c3 = {c3!r} are outside the general case "
                          "(need distinct values in (0, 1), c2 != 1/2, 6 c2 c3 - 4 (c2 + c3) + 3 != 0)")
     b2 = (1 - 2 * v) / (12 * u * (1 - u) * (u - v))
