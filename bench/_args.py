@@ -26,3 +26,11 @@ def positive_float(text: str) -> float:
     if not 0.0 < value < float("inf"):
         raise argparse.ArgumentTypeError(f"{value} outside the valid range (0, inf)")
     return value
+
+
+def list_of(item):
+    """A comma-separated list of values of the argument type ``item`` (e.g. ``positive_int``)."""
+    def parse(text: str) -> list:
+        return [item(part) for part in text.split(",")]
+    parse.__name__ = f"comma-separated list of {item.__name__}"
+    return parse

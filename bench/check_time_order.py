@@ -16,6 +16,7 @@ last pair of a fourth-order stepper (256 → 512, error about 4e-12) is already 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 import numpy as np
@@ -24,21 +25,21 @@ from bsrflow.analysis.verify import case_smooth_time
 from bsrflow.numerics.solver import Scheme
 from bsrflow.numerics.steppers import STEPPERS
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from _args import list_of, positive_int  # noqa: E402
+
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scheme", default="accurate", help="scheme preset (default accurate)")
     ap.add_argument("--stepper", default=None, choices=sorted(STEPPERS),
                     help="Runge-Kutta stepper (default: the preset's)")
-    ap.add_argument("--steps", default="64,128,256,512",
+    ap.add_argument("--steps", type=list_of(positive_int), default="64,128,256,512",
                     help="comma-separated numbers of steps, increasing (default 64,128,256,512)")
     args = ap.parse_args(argv)
-    try:
-        steps = tuple(int(v) for v in args.steps.split(","))
-    except ValueError:
-        ap.error(f"--steps = {args.steps!r} is not a comma-separated list of integers")
-    if len(steps) < 2 or min(steps) < 1 or list(steps) != sorted(set(steps)):
-        ap.error(f"--steps = {args.steps!r}: need at least two increasing integers >= 1")
+    steps = tuple(args.steps)
+    if len(steps) < 2 or list(steps) != sorted(set(steps)):
+        ap.error(f"--steps = {args.steps}: need at least two increasing integers >= 1")
     p = Scheme.preset(args.scheme)
     stepper = args.stepper or p.stepper
     kw = dict(stepper=stepper, filter=False, hyperdiffusion=p.hyperdiffusion,

@@ -30,38 +30,28 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import bench_schemes as bs  # noqa: E402
+from _args import list_of, positive_float, positive_int  # noqa: E402
 
 from bsrflow.numerics import steppers  # noqa: E402
 from bsrflow.numerics.solver import Scheme  # noqa: E402
 
 
-def _floats(text, name):
-    try:
-        return [float(v) for v in text.split(",")]
-    except ValueError:
-        raise SystemExit(f"--{name} = {text!r} is not a comma-separated list of numbers") from None
-
-
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--nodes", default="0.2,0.3,0.333,0.4,0.6,0.7,0.8",
+    ap.add_argument("--nodes", type=list_of(positive_float), default="0.2,0.3,0.333,0.4,0.6,0.7,0.8",
                     help="values tried for both c2 and c3, each in (0, 1) (default 0.2,0.3,0.333,0.4,0.6,0.7,0.8)")
-    ap.add_argument("--ppd", default="10,20", help="grids, points per diameter >= 2 (default 10,20)")
+    ap.add_argument("--ppd", type=list_of(positive_int), default="10,20", help="grids, points per diameter >= 2 (default 10,20)")
     ap.add_argument("--cfl", type=float, default=0.1,
                     help="Courant number in (0, 1.7321], the limit of the Kutta RK3 row (default 0.1)")
     ap.add_argument("--perturb", type=float, default=0.0,
                     help="relative perturbation of the initial density, in [0, 1e-3] (default 0)")
     ap.add_argument("--json", default=None, help="also write the table as JSON")
     args = ap.parse_args(argv)
-    nodes = _floats(args.nodes, "nodes")
-    try:
-        ppds = [int(p) for p in args.ppd.split(",")]
-    except ValueError:
-        ap.error(f"--ppd = {args.ppd!r} is not a comma-separated list of integers")
+    nodes, ppds = args.nodes, args.ppd
     if not all(0 < v < 1 for v in nodes):
-        ap.error(f"--nodes = {args.nodes!r}: every node must be in (0, 1)")
+        ap.error(f"--nodes = {nodes}: every node must be in (0, 1)")
     if not all(p >= 2 for p in ppds):
-        ap.error(f"--ppd = {args.ppd!r}: every grid needs at least 2 points per diameter")
+        ap.error(f"--ppd = {ppds}: every grid needs at least 2 points per diameter")
     if not 0 < args.cfl <= 1.7321:
         ap.error(f"--cfl = {args.cfl!r} is outside the valid range (0, 1.7321] (Kutta's RK3 row)")
     if not 0 <= args.perturb <= 1e-3:
@@ -70,19 +60,17 @@ def main(argv=None) -> int:
     make_ref, ref_ppd = bs.REFERENCES["converged"]
     _, ref, res = bs.run(make_ref(), ref_ppd)
     print(f"reference: {res.steps} steps at {ref_ppd} ppd", flush=True)
-    members = [("kutta3", None), ("rk4", None)]
+    names = ["kutta3", "rk4"]
     for c2, c3 in itertools.product(nodes, nodes):
+        name = f"kutta4_{c2:g}_{c3:g}"
         try:
-            a, b, c = steppers.kutta4_family(Fraction(c2).limit_denominator(100), Fraction(c3).limit_denominator(100))
+            steppers.STEPPERS[name] = steppers.kutta4_tableau(Fraction(c2).limit_denominator(100),
+                                                              Fraction(c3).limit_denominator(100), name)
         except ValueError:
             continue
-        members.append((f"kutta4_{c2:g}_{c3:g}", (a, b, c)))
+        names.append(name)
     rows = []
-    for name, abc in members:
-        if abc is not None:
-            a, b, c = (np.array([[float(x) for x in r] for r in abc[0]]), np.array([float(x) for x in abc[1]]),
-                       np.array([float(x) for x in abc[2]]))
-            steppers.STEPPERS[name] = steppers.Tableau(name, a, b, c, 4)
+    for name in names:
         tb = steppers.get_stepper(name)
         row = {"stepper": name, "c": tb.c.tolist(), "max_abs_coefficient": float(max(np.abs(tb.a).max(), np.abs(tb.b).max())),
                "errors": {}}

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Tableau", "STEPPERS", "get_stepper", "kutta4_family", "order_residual"]
+__all__ = ["Tableau", "STEPPERS", "get_stepper", "kutta4_family", "kutta4_tableau", "order_residual"]
 
 
 @dataclass(frozen=True)
@@ -102,9 +102,11 @@ def order_residual(a, b, c, order) -> float:
     return float(max(abs(x) for x in conds))
 
 
-def _kutta4(c2, c3, name):
+def kutta4_tableau(c2, c3, name) -> Tableau:
+    """The :class:`Tableau` of ``kutta4_family(c2, c3)``, computed in exact fractions (c2, c3 are
+    numbers or strings such as ``"2/5"``; floats are rounded to denominators up to 1000)."""
     from fractions import Fraction
-    a, b, c = kutta4_family(Fraction(c2), Fraction(c3))
+    a, b, c = kutta4_family(*(Fraction(x).limit_denominator(1000) for x in (c2, c3)))
     return _t(name, [[float(x) for x in row] for row in a], [float(x) for x in b], [float(x) for x in c], 4)
 
 
@@ -120,7 +122,7 @@ STEPPERS: dict[str, Tableau] = {
                [2 / 9, 1 / 3, 4 / 9, 0], [0, 0.5, 0.75, 1], 3,
                [7 / 24, 1 / 4, 1 / 3, 1 / 8], 2),
     # A = [[0], [2/5], [31/64, -15/64], [2/5, 3, -12/5]], b = (1/4, 125/108, -16/27, 5/27)
-    "rk4_0.4_0.25": _kutta4("2/5", "1/4", "rk4_0.4_0.25"),
+    "rk4_0.4_0.25": kutta4_tableau("2/5", "1/4", "rk4_0.4_0.25"),
 }
 STEPPERS["rk3"] = STEPPERS["kutta3"]
 
