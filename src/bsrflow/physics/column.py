@@ -37,6 +37,9 @@ from .kernels import walton_braun_from_contact
 from .model import BSRModel
 from .motion import HalfSineTaps
 
+KERNELS = ("seed", "packing")
+FORMULATIONS = ("eulerian", "lagrangian")
+
 __all__ = ["ColumnSetup", "ColumnRun", "run_bsr_column", "initial_density"]
 
 DEFAULT_DIAMETER = 0.022
@@ -57,6 +60,11 @@ class ColumnSetup:
     run: t_end [s]; numerics: points_per_diameter, scheme preset name, save_every [s].
     impulses: include the velocity jumps of the displacement pulse (True, correct) or only the
     smooth inertial term a ω² sin ωt of (4.6) as printed (False).
+    kernel: "seed" (the seed's kernel (4.6) with m0 and ε, solved by the seed's scheme) or
+    "packing" (the contact law's continuum, :mod:`bsrflow.physics.packing`; m0, ε and scheme
+    do not enter); formulation: "eulerian" or "lagrangian" (packing only); stiffness_factor in
+    (0, 1]: the packing law's stiffness K·factor (the reduced-stiffness option); cfl: the
+    packing discretisation's CFL number (default 0.4 Eulerian, 0.5 Lagrangian).
     """
 
     n_spheres: int = 20
@@ -78,6 +86,10 @@ class ColumnSetup:
     save_every: float = 0.005
     domain_height: float | None = None
     impulses: bool = True
+    kernel: str = "seed"
+    formulation: str = "eulerian"
+    stiffness_factor: float = 1.0
+    cfl: float | None = None
 
     def __post_init__(self):
         checks = [
@@ -111,6 +123,26 @@ class ColumnSetup:
         if self.n_taps > 1 and self.tap_period < 0.5 / self.frequency:
             raise ValueError(f"tap_period = {self.tap_period!r} s is outside the valid range "
                              f"[{0.5 / self.frequency:g}, inf) s (a tap lasts 1/(2f))")
+        if self.kernel not in KERNELS:
+            raise ValueError(f"kernel = {self.kernel!r} is not one of {', '.join(KERNELS)}")
+        if self.formulation not in FORMULATIONS:
+            raise ValueError(f"formulation = {self.formulation!r} is not one of {', '.join(FORMULATIONS)}")
+        if self.kernel == "seed" and self.formulation != "eulerian":
+            raise ValueError(f"formulation = {self.formulation!r} is not supported by the seed kernel "
+                             "(valid: eulerian; the lagrangian formulation is the packing kernel's)")
+        if not (np.isfinite(self.stiffness_factor) and 0.0 < self.stiffness_factor <= 1.0):
+            raise ValueError(f"stiffness_factor = {self.stiffness_factor!r} is outside the valid range (0, 1]")
+        if self.kernel == "seed" and self.stiffness_factor != 1.0:
+            raise ValueError("stiffness_factor is an option of the packing kernel only (the seed kernel's "
+                             "stiffness is set by m0)")
+        if self.cfl is not None:
+            if self.kernel == "seed":
+                raise ValueError("cfl is an option of the packing kernel only (the seed kernel's CFL number "
+                                 "is the scheme's)")
+            lim = 0.5 if self.formulation == "eulerian" else 0.9
+            if not (np.isfinite(self.cfl) and 0.0 < self.cfl <= lim):
+                raise ValueError(f"cfl = {self.cfl!r} is outside the valid range (0, {lim}] for the "
+                                 f"{self.formulation} packing formulation")
         need = self.energy_bound_height()
         if self.domain_height is not None and self.domain_height < need:
             raise ValueError(f"domain_height = {self.domain_height!r} m is outside the valid range "
@@ -137,9 +169,10 @@ class ColumnSetup:
         return math.sqrt(self.stiffness * self.diameter ** 2 / (3.0 * self.m0))
 
     def energy_bound_height(self) -> float:
-        """Domain height [m] from the energy bound (module docstring)."""
+        """Domain height [m] from the energy bound (module docstring; the packing has no gas
+        expansion term: it carries no load below close packing)."""
         launch = 3.0 * self.amplitude * self.omega if self.n_taps > 0 else 0.0
-        v = launch + 2.0 * self.sound_speed()
+        v = launch + (2.0 * self.sound_speed() if self.kernel == "seed" else 0.0)
         return self.n_spheres * self.diameter + v * v / (2.0 * self.gravity) + 3.0 * self.diameter
 
     def height(self) -> float:
@@ -163,6 +196,24 @@ class ColumnSetup:
     def kernel(self):
         return walton_braun_from_contact(self.stiffness, self.particle_mass, self.m0, self.kernel_dissipation,
                                          self.diameter)
+
+    def packing_law(self):
+        """The packing interaction of this column (:class:`bsrflow.physics.packing.PackingLaw`)."""
+        from .packing import PackingLaw
+        return PackingLaw(self.stiffness, self.restitution, self.diameter, self.density, self.stiffness_factor)
+
+    def packing_discretisation(self):
+        """The packing continuum's discretisation of this column, at rest at close packing
+        (ρ = m/d on [0, N d]): :class:`~bsrflow.numerics.packing.EulerianPacking` or
+        :class:`~bsrflow.numerics.packing.LagrangianPacking`."""
+        from ..numerics.packing import EulerianPacking, LagrangianPacking
+        law, grid = self.packing_law(), self.grid()
+        args = (law, grid, self.n_spheres, self.motion(), self.gravity, self.points_per_diameter)
+        kw = {} if self.cfl is None else {"cfl": self.cfl}
+        if self.formulation == "lagrangian":
+            return LagrangianPacking(*args, **kw)
+        rho0 = np.where(grid.x < self.n_spheres * self.diameter, law.close_packing_density, 0.0)
+        return EulerianPacking(*args, rho0=rho0, **kw)
 
     def model(self) -> BSRModel:
         return BSRModel(kernel=self.kernel(), motion=self.motion(), gravity=self.gravity)
@@ -230,7 +281,12 @@ class ColumnRun:
 
 def run_bsr_column(setup: ColumnSetup, scheme: Scheme | str | None = None, observers=(), progress=None,
                    tracer_integrator: str | None = None) -> ColumnRun:
-    """Run the continuum column from rest (stacked spheres) to ``setup.t_end``."""
+    """Run the continuum column from rest (stacked spheres) to ``setup.t_end``; the packing
+    kernel goes to :func:`run_packing_column`."""
+    if setup.kernel == "packing":
+        if scheme is not None or tracer_integrator is not None:
+            raise ValueError("scheme and tracer_integrator are options of the seed kernel's solver only")
+        return run_packing_column(setup, observers=observers, progress=progress)
     if scheme is None:
         scheme = setup.scheme
     if isinstance(scheme, str):
@@ -243,6 +299,25 @@ def run_bsr_column(setup: ColumnSetup, scheme: Scheme | str | None = None, obser
     res = sim.run(np.zeros(grid.n_cells), rho0, setup.t_end, save_every=setup.save_every,
                   tracers=setup.sphere_centres(), observers=observers, progress=progress)
     return column_run_from_result(setup, grid, res)
+
+
+def save_times_of(setup: ColumnSetup) -> np.ndarray:
+    """Save times 0, Δ, 2Δ, ... up to t_end (t_end included) [s]."""
+    n = int(math.floor(setup.t_end / setup.save_every * (1 + 1e-12)))
+    times = np.arange(n + 1) * setup.save_every
+    if setup.t_end - times[-1] > 1e-12 * setup.t_end:
+        times = np.append(times, setup.t_end)
+    return times
+
+
+def run_packing_column(setup: ColumnSetup, observers=(), progress=None) -> ColumnRun:
+    """Run the packing continuum of the column (``setup.kernel == "packing"``) in
+    ``setup.formulation`` from rest to ``setup.t_end``."""
+    from ..numerics.packing import run_packing
+    disc = setup.packing_discretisation()
+    res = run_packing(disc, setup.t_end, save_times_of(setup), observers=observers, progress=progress)
+    res.info["scheme"] = f"packing_{disc.name}"
+    return column_run_from_result(setup, disc.grid, res)
 
 
 def column_run_from_result(setup, grid, res) -> ColumnRun:

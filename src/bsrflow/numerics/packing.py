@@ -1,0 +1,262 @@
+"""Drivers of the packing continuum (issue #18): two discretisations behind one run controller.
+
+* :class:`EulerianPacking` — formulation (a): fields on the grid of :class:`Grid1D`, finite
+  volumes (MUSCL-minmod reconstruction, HLLE fluxes with secant wave speeds, SSP-RK3), the
+  history field δ_max advected with the material in conserved form ρδ_max.
+* :class:`LagrangianPacking` — formulation (b): material points moved by ẋ = u, the density
+  by characteristics (3.10)–(3.12) between neighbouring points, pair forces between them,
+  velocity Verlet; the history lives on the bonds between points.
+
+Both expose the same interface to :func:`run_packing` (the controller): a state of named fields
+(``fields``; what checkpoints store), ``advance(t, t_stop)``, ``observe()`` (density and velocity
+on the output grid, tracers by mass coordinate, all in the floor frame) and ``supports``, the
+options each accepts.  Output goes through the observers of the seed solver
+(:class:`bsrflow.io.netcdf.NetCDFWriter`), so both write the same netCDF as today.
+
+Tracers: the height below which the mass (k + ½) m lies (the centre of sphere k, the top sphere
+last).  In 1-D material lines never cross, so the mass coordinate is exactly Lagrangian: these
+are the material trajectories of the sphere centres in both formulations.
+
+Units: SI; ρ [kg/m] line density, u [m/s] floor frame, δ_max [m].
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..physics.packing import PackingLaw
+from .grid import Grid1D
+from . import packing_kernels as pk
+
+__all__ = ["EulerianPacking", "LagrangianPacking", "PackingResult", "PackingError", "run_packing",
+           "FORMULATIONS"]
+
+FORMULATIONS = ("eulerian", "lagrangian")
+
+
+class PackingError(RuntimeError):
+    """A monitor stopped the packing run; ``t`` [s] and ``where`` say when and where."""
+
+    def __init__(self, message, t, where=None):
+        super().__init__(message)
+        self.t = t
+        self.where = where
+
+
+@dataclass
+class PackingResult:
+    t: np.ndarray
+    rho: np.ndarray          # (nt, nx) [kg/m]
+    u: np.ndarray            # (nt, nx) [m/s] floor frame
+    tracers: np.ndarray      # (nt, N) [m] floor frame
+    floor: np.ndarray        # (nt,) [m]
+    steps: int
+    wall_time: float
+    status: str = "ok"
+    info: dict = field(default_factory=dict)
+
+
+class _Base:
+    supports: frozenset = frozenset()
+    name = ""
+
+    def __init__(self, law: PackingLaw, grid: Grid1D, n_spheres: int, motion, gravity: float,
+                 points_per_diameter: int, cfl: float):
+        if not isinstance(grid, Grid1D) or grid.bc_lower != "floor" or grid.bc_upper != "vacuum" or grid.lower != 0.0:
+            raise ValueError("grid must be a Grid1D from 0 with a floor below and a vacuum top")
+        if not (0.0 < cfl <= self.cfl_limit):
+            raise ValueError(f"cfl = {cfl!r} is outside the valid range (0, {self.cfl_limit}] for the "
+                             f"{self.name} packing formulation")
+        self.law, self.grid, self.n_spheres = law, grid, int(n_spheres)
+        self.motion, self.gravity, self.ppd, self.cfl = motion, float(gravity), int(points_per_diameter), float(cfl)
+        self.steps = 0
+        self._fn = motion.fn
+        self._params = np.ascontiguousarray(motion.params, dtype=np.float64)
+        self.sphere_masses = (np.arange(self.n_spheres) + 0.5) * law.particle_mass
+
+    # the controller's view -----------------------------------------------------------------------
+    @property
+    def fields(self) -> dict:
+        raise NotImplementedError
+
+    def load_fields(self, fields: dict):
+        for k, v in self.fields.items():
+            a = np.asarray(fields[k], dtype=float)
+            if a.shape != v.shape:
+                raise ValueError(f"field {k}: shape {a.shape}, expected {v.shape}")
+            v[...] = a
+
+    def apply_velocity_jump(self, dv):
+        raise NotImplementedError
+
+    def total_mass(self) -> float:
+        return self.law.particle_mass * self.n_spheres
+
+
+class EulerianPacking(_Base):
+    """Formulation (a): finite volumes on ``grid`` (module docstring)."""
+
+    name = "eulerian"
+    cfl_limit = 0.5
+    supports = frozenset({"cfl", "points_per_diameter", "stiffness_factor", "save_every", "checkpoint_every"})
+
+    def __init__(self, law, grid, n_spheres, motion, gravity, points_per_diameter, cfl=0.4, rho0=None):
+        super().__init__(law, grid, n_spheres, motion, gravity, points_per_diameter, cfl)
+        n = grid.n_cells
+        self.q = np.zeros((3, n + 2 * pk.NG))
+        if rho0 is not None:
+            self.q[pk.RHO, pk.NG:pk.NG + n] = rho0
+        rc = law.close_packing_density
+        self.rho_tiny = 1e-12 * rc
+        self.rho_floor = 1e-30 * rc
+        self.c_bound = law.wave_speed()
+        self.counters = np.zeros(4, dtype=np.int64)
+
+    @property
+    def fields(self):
+        n = self.grid.n_cells
+        s = slice(pk.NG, pk.NG + n)
+        return {"rho": self.q[pk.RHO, s], "momentum": self.q[pk.MOM, s], "rho_delta_max": self.q[pk.HIST, s]}
+
+    def apply_velocity_jump(self, dv):
+        n = self.grid.n_cells
+        s = slice(pk.NG, pk.NG + n)
+        self.q[pk.MOM, s] -= dv * self.q[pk.RHO, s]
+
+    def advance(self, t, t_stop):
+        law = self.law
+        self.counters[1:] = 0
+        t = pk.fv_advance(self.q, float(t), float(t_stop), self.grid.dx, self.cfl, self.c_bound, law.diameter,
+                          law.particle_mass, law.k1, law.k2, self.rho_tiny, self.rho_floor, self._fn,
+                          self._params, self.gravity, self.counters)
+        self.steps = int(self.counters[0])
+        status = int(self.counters[1])
+        if status:
+            where = float(self.grid.x[min(int(self.counters[2]), self.grid.n_cells - 1)])
+            msg = {1: "negative density", 2: "non-finite state", 3: "material reached the top of the domain"}[status]
+            raise PackingError(f"{msg} at t = {t:.6g} s, x = {where:.4g} m (cell {int(self.counters[2])})", t, where)
+        return t
+
+    def observe(self):
+        """(rho [kg/m], u [m/s], tracers [m], kinetic energy [J]) on the grid, floor frame."""
+        f = self.fields
+        rho = f["rho"].copy()
+        u = np.where(rho > self.rho_tiny, f["momentum"] / np.where(rho > 0, rho, 1.0), 0.0)
+        dx = self.grid.dx
+        cum = np.concatenate([[0.0], np.cumsum(rho) * dx])
+        faces = np.concatenate([[0.0], self.grid.x + 0.5 * dx])
+        tracers = np.interp(self.sphere_masses * (cum[-1] / self.total_mass()), cum, faces)
+        return rho, u, tracers, 0.5 * float(np.sum(rho * u * u)) * dx
+
+
+class LagrangianPacking(_Base):
+    """Formulation (b): material points (module docstring); ``points_per_diameter`` points per
+    sphere, each of mass m/ppd, starting at rest at the centres of equal slices of the column."""
+
+    name = "lagrangian"
+    cfl_limit = 0.9
+    supports = frozenset({"cfl", "points_per_diameter", "stiffness_factor", "save_every", "checkpoint_every"})
+
+    def __init__(self, law, grid, n_spheres, motion, gravity, points_per_diameter, cfl=0.5):
+        super().__init__(law, grid, n_spheres, motion, gravity, points_per_diameter, cfl)
+        n_pts = self.n_spheres * self.ppd
+        h = law.diameter / self.ppd
+        self.x = (np.arange(n_pts) + 0.5) * h
+        self.v = np.zeros(n_pts)
+        self.hist = np.zeros(n_pts)
+        self.mu = law.particle_mass / self.ppd
+        # Verlet is stable for ω_max Δt < 2 with ω_max = 2 ppd √(K2/m): Δt = cfl h / c
+        self.dt_max = self.cfl * h / law.wave_speed()
+        self.counters = np.zeros(3, dtype=np.int64)
+        self.point_masses = (np.arange(n_pts) + 0.5) * self.mu
+
+    @property
+    def fields(self):
+        return {"position": self.x, "velocity": self.v, "delta_max": self.hist}
+
+    def apply_velocity_jump(self, dv):
+        self.v -= dv
+
+    def advance(self, t, t_stop):
+        law = self.law
+        self.counters[1:] = 0
+        t = pk.lagrangian_advance(self.x, self.v, self.hist, float(t), float(t_stop), self.dt_max, self.mu,
+                                  float(self.ppd), law.diameter, law.k1, law.k2, self._fn, self._params,
+                                  self.gravity, self.counters)
+        self.steps = int(self.counters[0])
+        if self.counters[1]:
+            raise PackingError(f"material points crossed (a bond length reached 0) at t = {t:.6g} s", t)
+        if self.x[-1] > self.grid.upper - self.law.diameter:
+            raise PackingError(f"material reached the top of the domain at t = {t:.6g} s, "
+                               f"x = {self.x[-1]:.4g} m", t, float(self.x[-1]))
+        return t
+
+    def cumulative_mass(self):
+        """(nodes [m], cumulative mass [kg]): the piecewise-linear mass below each height: the
+        bond between two points holds m/ppd spread uniformly; half a point's mass lies between the
+        floor and the lowest point, half above the top point over half a rest spacing."""
+        h = self.law.diameter / self.ppd
+        nodes = np.concatenate([[0.0], self.x, [self.x[-1] + 0.5 * h]])
+        cum = np.concatenate([[0.0], self.point_masses, [self.total_mass()]])
+        return nodes, cum
+
+    def observe(self):
+        nodes, cum = self.cumulative_mass()
+        dx = self.grid.dx
+        faces = np.concatenate([[0.0], self.grid.x + 0.5 * dx])
+        rho = np.diff(np.interp(faces, nodes, cum)) / dx
+        u = np.interp(self.grid.x, self.x, self.v)
+        tracers = np.interp(self.sphere_masses, cum, nodes)
+        return rho, u, tracers, 0.5 * self.mu * float(np.sum(self.v * self.v))
+
+
+def run_packing(disc, t_end, save_times, *, t_start=0.0, observers=(), extra_event_times=(), on_event=None,
+                progress=None, restart=False):
+    """The run controller of both discretisations: advance from event to event (save times,
+    velocity jumps of the motion, ``extra_event_times`` such as checkpoints), apply the jumps,
+    call ``on_event(t, disc)`` at the extra events (before the jump and the save at t, as
+    checkpoints need) and every observer ``obs(t, u, rho, tracers)`` at the saves.
+
+    A monitor stop raises :class:`PackingError` after the observers got every snapshot before it
+    and ``disc`` holds the state reached (nothing written so far is lost).  Returns a
+    :class:`PackingResult` with the saved snapshots."""
+    t_end = float(t_end)
+    save_times = np.asarray(save_times, dtype=float)
+    jumps = disc.motion.jumps_between(t_start, t_end + 1e-15)
+    extra = np.asarray(extra_event_times, dtype=float)
+    events = sorted(set(save_times.tolist()) | {tj for tj, _ in jumps} | set(extra.tolist()) | {t_end})
+    events = [e for e in events if t_start <= e <= t_end]
+    save_set, extra_set = set(save_times.tolist()), set(extra.tolist())
+    jump_at = {}
+    for tj, dv in jumps:
+        jump_at[tj] = jump_at.get(tj, 0.0) + dv
+    out_t, out_rho, out_u, out_tr, out_floor = [], [], [], [], []
+    t = float(t_start)
+    steps0 = disc.steps
+    wall = time.perf_counter()
+    for e in events:
+        if e > t:
+            t = disc.advance(t, e)
+        if e in extra_set and on_event is not None and not (restart and e == t_start):
+            on_event(e, disc)
+        if e in jump_at:
+            disc.apply_velocity_jump(jump_at[e])
+        if e in save_set:
+            rho, u, tr, _ = disc.observe()
+            for obs in observers:
+                obs(e, u, rho, tr)
+            out_t.append(e)
+            out_rho.append(rho)
+            out_u.append(u)
+            out_tr.append(tr)
+            out_floor.append(disc.motion.state(e)[0])
+            if progress is not None:
+                progress(e)
+    wall = time.perf_counter() - wall
+    return PackingResult(np.array(out_t), np.array(out_rho), np.array(out_u), np.array(out_tr),
+                         np.array(out_floor), disc.steps - steps0, wall,
+                         info={"formulation": disc.name, "ppd": disc.ppd, "cfl": disc.cfl})
