@@ -60,7 +60,7 @@ class ColumnSetup:
     run: t_end [s]; numerics: points_per_diameter, scheme preset name, save_every [s].
     impulses: include the velocity jumps of the displacement pulse (True, correct) or only the
     smooth inertial term a ω² sin ωt of (4.6) as printed (False).
-    kernel: "seed" (the seed's kernel (4.6) with m0 and ε, solved by the seed's scheme) or
+    kernel_name: "seed" (the seed's kernel (4.6) with m0 and ε, solved by the seed's scheme) or
     "packing" (the contact law's continuum, :mod:`bsrflow.physics.packing`; m0, ε and scheme
     do not enter); formulation: "eulerian" or "lagrangian" (packing only); stiffness_factor in
     (0, 1]: the packing law's stiffness K·factor (the reduced-stiffness option); cfl: the
@@ -86,7 +86,7 @@ class ColumnSetup:
     save_every: float = 0.005
     domain_height: float | None = None
     impulses: bool = True
-    kernel: str = "seed"
+    kernel_name: str = "seed"
     formulation: str = "eulerian"
     stiffness_factor: float = 1.0
     cfl: float | None = None
@@ -123,20 +123,20 @@ class ColumnSetup:
         if self.n_taps > 1 and self.tap_period < 0.5 / self.frequency:
             raise ValueError(f"tap_period = {self.tap_period!r} s is outside the valid range "
                              f"[{0.5 / self.frequency:g}, inf) s (a tap lasts 1/(2f))")
-        if self.kernel not in KERNELS:
-            raise ValueError(f"kernel = {self.kernel!r} is not one of {', '.join(KERNELS)}")
+        if self.kernel_name not in KERNELS:
+            raise ValueError(f"kernel_name = {self.kernel_name!r} is not one of {', '.join(KERNELS)}")
         if self.formulation not in FORMULATIONS:
             raise ValueError(f"formulation = {self.formulation!r} is not one of {', '.join(FORMULATIONS)}")
-        if self.kernel == "seed" and self.formulation != "eulerian":
+        if self.kernel_name == "seed" and self.formulation != "eulerian":
             raise ValueError(f"formulation = {self.formulation!r} is not supported by the seed kernel "
                              "(valid: eulerian; the lagrangian formulation is the packing kernel's)")
         if not (np.isfinite(self.stiffness_factor) and 0.0 < self.stiffness_factor <= 1.0):
             raise ValueError(f"stiffness_factor = {self.stiffness_factor!r} is outside the valid range (0, 1]")
-        if self.kernel == "seed" and self.stiffness_factor != 1.0:
+        if self.kernel_name == "seed" and self.stiffness_factor != 1.0:
             raise ValueError("stiffness_factor is an option of the packing kernel only (the seed kernel's "
                              "stiffness is set by m0)")
         if self.cfl is not None:
-            if self.kernel == "seed":
+            if self.kernel_name == "seed":
                 raise ValueError("cfl is an option of the packing kernel only (the seed kernel's CFL number "
                                  "is the scheme's)")
             lim = 0.5 if self.formulation == "eulerian" else 0.9
@@ -172,7 +172,7 @@ class ColumnSetup:
         """Domain height [m] from the energy bound (module docstring; the packing has no gas
         expansion term: it carries no load below close packing)."""
         launch = 3.0 * self.amplitude * self.omega if self.n_taps > 0 else 0.0
-        v = launch + (2.0 * self.sound_speed() if self.kernel == "seed" else 0.0)
+        v = launch + (2.0 * self.sound_speed() if self.kernel_name == "seed" else 0.0)
         return self.n_spheres * self.diameter + v * v / (2.0 * self.gravity) + 3.0 * self.diameter
 
     def height(self) -> float:
@@ -283,7 +283,7 @@ def run_bsr_column(setup: ColumnSetup, scheme: Scheme | str | None = None, obser
                    tracer_integrator: str | None = None) -> ColumnRun:
     """Run the continuum column from rest (stacked spheres) to ``setup.t_end``; the packing
     kernel goes to :func:`run_packing_column`."""
-    if setup.kernel == "packing":
+    if setup.kernel_name == "packing":
         if scheme is not None or tracer_integrator is not None:
             raise ValueError("scheme and tracer_integrator are options of the seed kernel's solver only")
         return run_packing_column(setup, observers=observers, progress=progress)
@@ -311,7 +311,7 @@ def save_times_of(setup: ColumnSetup) -> np.ndarray:
 
 
 def run_packing_column(setup: ColumnSetup, observers=(), progress=None) -> ColumnRun:
-    """Run the packing continuum of the column (``setup.kernel == "packing"``) in
+    """Run the packing continuum of the column (``setup.kernel_name == "packing"``) in
     ``setup.formulation`` from rest to ``setup.t_end``."""
     from ..numerics.packing import run_packing
     disc = setup.packing_discretisation()
