@@ -94,3 +94,93 @@ def compare_figures(runs: dict, outdir: str):
             density_snapshots(run, os.path.join(outdir, f"{name}_density.png"), times, label)
         trajectories_side_by_side(run, dem, os.path.join(outdir, f"{name}_trajectories.png"), label)
         top_and_centre(run, dem, os.path.join(outdir, f"{name}_top_centre.png"), label)
+
+
+_FORM_COLOURS = {"eulerian": "C0", "lagrangian": "C2", "seed": "C4"}
+
+
+def packing_case_figures(name, setup, runs: dict, dem, outdir: str, seed_run=None):
+    """Figures of one case of the packing comparison (:mod:`bsrflow.analysis.compare_packing`):
+    ``runs`` = {formulation: ColumnRun}; ``seed_run``: the calibrated seed-kernel run of the same
+    case, drawn on the same axes when given (``make demo``)."""
+    from .analysis.compare_packing import coarse_grained_density
+    os.makedirs(outdir, exist_ok=True)
+    s = setup
+    d, m = s.diameter, s.particle_mass
+    line = m / d
+    t_d, pos, floor = dem
+    label = (f"{name}: d = {1000 * d:g} mm, a/d = {s.a_over_d}, f = {s.frequency:g} Hz, {s.n_taps} tap(s); "
+             "packing continuum not calibrated")
+    models = dict(runs)
+    if seed_run is not None:
+        models["seed"] = seed_run
+    names = {"eulerian": "packing, Eulerian", "lagrangian": "packing, Lagrangian",
+             "seed": "seed kernel (m0, ε calibrated)"}
+    # trajectories side by side
+    fig, axes = plt.subplots(1, len(models) + 1, figsize=(4.6 * (len(models) + 1), 4.8), sharey=True)
+    for ax, (form, run) in zip(axes, models.items()):
+        ax.plot(run.t, run.tracers / d, color=_FORM_COLOURS[form], lw=0.7)
+        ax.plot(run.t, run.mass_centre / d, color="k", lw=2, label="mass centre")
+        ax.set_title(f"{names[form]}: tracers at sphere centres", fontsize=9)
+    axes[-1].plot(t_d, pos / d, color="C1", lw=0.7)
+    axes[-1].plot(t_d, pos.mean(axis=1) / d, color="k", lw=2, label="mass centre")
+    axes[-1].set_title("DEM: sphere centres", fontsize=9)
+    for ax in axes:
+        ax.plot(t_d, floor / d, color="C3", lw=1, label="floor")
+        ax.set_xlabel("time t [s]")
+        ax.grid(alpha=0.3)
+        ax.legend(loc="upper left", fontsize=8)
+    axes[0].set_ylabel("height above the floor at rest, y/d")
+    fig.suptitle(label, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(os.path.join(outdir, f"{name}_trajectories.png"), dpi=100)
+    plt.close(fig)
+    # top and mass centre
+    fig, ax = plt.subplots(figsize=(9, 5))
+    for form, run in models.items():
+        c = _FORM_COLOURS[form]
+        ax.plot(run.t, run.top / d, color=c, lw=1.2, label=f"{names[form]}: top sphere centre")
+        ax.plot(run.t, run.mass_centre / d, color=c, lw=1.2, ls="--", label=f"{names[form]}: mass centre")
+    ax.plot(t_d, pos[:, -1] / d, color="C1", lw=2, alpha=0.7, label="DEM: top sphere centre")
+    ax.plot(t_d, pos.mean(axis=1) / d, color="C1", lw=2, ls="--", alpha=0.7, label="DEM: mass centre")
+    ax.set_xlabel("time t [s]")
+    ax.set_ylabel("height above the floor at rest, y/d")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
+    ax.set_title(label, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(os.path.join(outdir, f"{name}_top_centre.png"), dpi=100)
+    plt.close(fig)
+    # density snapshots beside the DEM's coarse-grained density
+    k_peak = int(np.argmax(np.where(t_d >= s.tap_start, pos[:, -1], -np.inf)))
+    t_hi = min(t_d[-1], s.tap_start + 2.0 * (t_d[k_peak] - s.tap_start) + 0.05)
+    times = np.linspace(s.tap_start, t_hi, 8)
+    top = float(pos[:, -1].max() + d)
+    y = np.linspace(0.0, 1.1 * top, 600)
+    xmax = 1.1 * top / d
+    width = 0.5 * d
+    fig, axes = plt.subplots(2, 4, figsize=(14, 6.4), sharex=True, sharey=True)
+    for ax, tt in zip(axes.ravel(), times):
+        k = int(np.argmin(np.abs(t_d - tt)))
+        ax.plot(y / d, coarse_grained_density(pos[k], m, y, width) / line, color="C1", lw=2, alpha=0.8,
+                label="DEM, coarse-grained")
+        for form, run in models.items():
+            j = int(np.argmin(np.abs(run.t - tt)))
+            ylab = run.x + run.floor[j]
+            c = _FORM_COLOURS[form]
+            ax.plot(ylab / d, run.rho[j] / line, color=c, lw=0.8, alpha=0.6, label=f"{names[form]}")
+            cg = coarse_grained_density(ylab, run.rho[j] * (run.x[1] - run.x[0]), y, width)
+            ax.plot(y / d, cg / line, color=c, lw=1.2, ls="--", label=f"{names[form]}, coarse-grained")
+        ax.set_title(f"t = {t_d[k]:.3f} s", fontsize=9)
+        ax.set_xlim(0.0, xmax)
+        ax.grid(alpha=0.3)
+    for ax in axes[1]:
+        ax.set_xlabel("height above the floor at rest, y/d")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("normalised density ρ d / m")
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=4, fontsize=8)
+    fig.suptitle(label + f"; coarse-graining: Gaussian, standard deviation d/2", fontsize=9)
+    fig.tight_layout(rect=(0, 0.07, 1, 1))
+    fig.savefig(os.path.join(outdir, f"{name}_density.png"), dpi=100)
+    plt.close(fig)

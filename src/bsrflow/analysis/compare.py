@@ -207,13 +207,66 @@ def add_parser(sub):
         else:
             p.add_argument("--json", metavar="PATH", help="write the results as JSON")
             p.add_argument("--figures", metavar="DIR", help="write the figures to DIR")
-        p.add_argument("--scheme", default="seed", help="scheme preset (default: seed)")
+        p.add_argument("--scheme", default="seed", help="scheme preset of the seed kernel (default: seed)")
+        if name == "compare":
+            p.add_argument("--kernel", default="seed", help="seed (the seed's kernel, calibrated on one case; "
+                           "default) or packing (the contact law's continuum, nothing fitted, both "
+                           "formulations, the cases of bsrflow.analysis.compare_packing)")
+            p.add_argument("--formulation", default=None, help="packing only: eulerian, lagrangian or both "
+                           "(default both, comma-separated)")
+            p.add_argument("--cases", default=None, help="packing only: comma-separated case names (default all)")
+            p.add_argument("--stiffness-factor", type=float, default=None,
+                           help="packing only: contact stiffness K times this factor in (0, 1] (default 1)")
         p.add_argument("--diameter", type=float, default=None, help="sphere diameter d [m] (default 0.022)")
         p.add_argument("--ppd", type=int, default=None, help="grid points per diameter (default 10)")
         p.set_defaults(func=_main)
 
 
+def _packing_main(args) -> int:
+    from .compare_packing import PACKING_CASES, compare_packing, format_packing_table
+    forms = tuple((args.formulation or "eulerian,lagrangian").split(","))
+    bad = [f for f in forms if f not in ("eulerian", "lagrangian")]
+    if bad:
+        raise ValueError(f"--formulation = {bad[0]!r} is not one of eulerian, lagrangian")
+    cases = PACKING_CASES
+    if args.cases:
+        names = args.cases.split(",")
+        known = {c["name"] for c in PACKING_CASES}
+        for n in names:
+            if n not in known:
+                raise ValueError(f"--cases: {n!r} is not a case; valid: {', '.join(sorted(known))}")
+        cases = [c for c in PACKING_CASES if c["name"] in names]
+    kw = {}
+    if args.ppd is not None:
+        kw["points_per_diameter"] = args.ppd
+    if args.stiffness_factor is not None:
+        kw["stiffness_factor"] = args.stiffness_factor
+    if args.diameter is not None:
+        raise ValueError("--diameter is not an option of --kernel packing (its cases set d = 5, 10, 22 mm)")
+    if args.scheme != "seed":
+        raise ValueError("--scheme is an option of the seed kernel only (valid with --kernel packing: none)")
+    base = ColumnSetup(kernel_name="packing", **kw)
+    if args.figures:
+        os.makedirs(args.figures, exist_ok=True)
+    print(f"bsrflow compare --kernel packing: {len(cases)} cases, formulations {', '.join(forms)}, "
+          f"{base.points_per_diameter} points per diameter, stiffness factor {base.stiffness_factor:g}")
+    result = compare_packing(base, cases=cases, formulations=forms, figures=args.figures)
+    print(format_packing_table(result))
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(result, fh, indent=2)
+        print(f"wrote {args.json}")
+    return 0
+
+
 def _main(args) -> int:
+    if getattr(args, "kernel", "seed") not in ("seed", "packing"):
+        raise ValueError(f"--kernel = {args.kernel!r} is not one of seed, packing")
+    if getattr(args, "kernel", "seed") == "packing":
+        return _packing_main(args)
+    for opt in ("formulation", "cases", "stiffness_factor"):
+        if getattr(args, opt, None) is not None:
+            raise ValueError(f"--{opt.replace('_', '-')} is an option of --kernel packing only")
     kw = {}
     if args.diameter is not None:
         kw["diameter"] = args.diameter

@@ -30,6 +30,7 @@ import numpy as np
 
 from ..physics.packing import PackingLaw
 from .grid import Grid1D
+from .solver import SimulationError
 from . import packing_kernels as pk
 
 __all__ = ["EulerianPacking", "LagrangianPacking", "PackingResult", "PackingError", "run_packing",
@@ -38,13 +39,12 @@ __all__ = ["EulerianPacking", "LagrangianPacking", "PackingResult", "PackingErro
 FORMULATIONS = ("eulerian", "lagrangian")
 
 
-class PackingError(RuntimeError):
-    """A monitor stopped the packing run; ``t`` [s] and ``where`` say when and where."""
+class PackingError(SimulationError):
+    """A monitor stopped the packing run; ``time`` [s] and ``position`` [m] say when and where
+    (a :class:`~bsrflow.numerics.solver.SimulationError`: the CLI exits with code 3)."""
 
     def __init__(self, message, t, where=None):
-        super().__init__(message)
-        self.t = t
-        self.where = where
+        super().__init__(message, None, t, where, "stopped")
 
 
 @dataclass

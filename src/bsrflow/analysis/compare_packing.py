@@ -1,0 +1,136 @@
+"""The packing continuum against the DEM, with nothing fitted (issue #18).
+
+``bsrflow compare --kernel packing --json PATH --figures DIR`` runs, for every case of
+:data:`PACKING_CASES` (d = 5, 10, 22 mm at a/d = 0.5, 0.75, 1.0, 1.5, single taps; three taps
+with period 1.0 s at d = 22 mm, a/d = 0.75 and 1.0), the package's DEM and the packing
+continuum (:mod:`bsrflow.physics.packing`) in both formulations.  Only the contact law's K and
+e, d, the material density, N and g enter the continuum: no calibration step, and the JSON says
+so with ``"fitted_constants": {}``.
+
+Metrics per case and formulation (heights from the floor at rest, in d): the top sphere's
+maximum after the first tap and its time (continuum: the tracer at the top sphere's centre,
+i.e. at mass coordinate (N − ½) m), their relative differences from the DEM's, the relative
+error of the rise (top maximum minus the top at rest: the stricter measure), and the RMS
+difference of the mass-centre heights over the whole run.
+
+Figures: the tracer trajectories of both formulations beside the DEM's sphere trajectories;
+top and mass centre against time; density snapshots of the continuum beside the DEM's
+coarse-grained density (a Gaussian kernel average of the sphere centres of standard deviation
+d/2, i.e. about one diameter wide, the MercuryCG way; the continuum is shown both as it is and
+coarse-grained with the same kernel) at the same times.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+
+import numpy as np
+
+from ..physics.column import ColumnSetup, run_bsr_column
+
+__all__ = ["PACKING_CASES", "case_setup", "compare_packing", "coarse_grained_density", "format_packing_table"]
+
+PACKING_CASES = ([dict(name=f"d{int(round(d * 1000))}mm_a{a}", diameter=d, a_over_d=a, n_taps=1)
+                  for d in (0.005, 0.010, 0.022) for a in (0.5, 0.75, 1.0, 1.5)]
+                 + [dict(name=f"d22mm_a{a}_three_taps", diameter=0.022, a_over_d=a, n_taps=3, tap_period=1.0)
+                    for a in (0.75, 1.0)])
+
+
+def case_setup(case: dict, base: ColumnSetup | None = None, **kw) -> ColumnSetup:
+    """The column of a case: t_end covers the flight of a sphere launched at 2.2 aω after the
+    last tap, plus 0.15 s of settling (the DEM's top sphere leaves at about 2.05 aω)."""
+    base = base or ColumnSetup()
+    s = base.with_(kernel_name="packing", diameter=case["diameter"], a_over_d=case["a_over_d"],
+                   n_taps=case["n_taps"], tap_period=case.get("tap_period", base.tap_period), **kw)
+    last = s.tap_start + (s.n_taps - 1) * s.tap_period + 0.5 / s.frequency
+    flight = 2.0 * 2.2 * s.amplitude * s.omega / s.gravity
+    t_end = math.ceil((last + flight + 0.15) / s.save_every) * s.save_every
+    return s.with_(t_end=round(t_end, 9))
+
+
+def coarse_grained_density(centres, mass, heights, width):
+    """Line density [kg/m] at ``heights`` [m] of point masses ``mass`` [kg] (a number or one per
+    point) at ``centres`` [m]:
+    Σ_k m φ(y − y_k) with φ a Gaussian of standard deviation ``width`` [m]."""
+    z = (np.asarray(heights)[:, None] - np.asarray(centres)[None, :]) / width
+    w = np.broadcast_to(np.asarray(mass, dtype=float), np.shape(centres))
+    return (np.exp(-0.5 * z * z) @ w) / (width * math.sqrt(2.0 * math.pi))
+
+
+def _metrics(t, top, centre, setup):
+    d = setup.diameter
+    after = t >= setup.tap_start - 1e-12
+    k = int(np.argmax(np.where(after, top, -np.inf)))
+    return {"top_max_over_d": float(top[k] / d), "t_top_max": float(t[k]), "top_rest_over_d": float(top[0] / d)}
+
+
+def compare_packing(base: ColumnSetup | None = None, cases=None, formulations=("eulerian", "lagrangian"),
+                    figures=None, log=print):
+    """Run the comparison; returns the JSON-ready dict (module docstring)."""
+    from .compare import run_dem_column
+    base = base or ColumnSetup()
+    cases = PACKING_CASES if cases is None else cases
+    t0 = time.perf_counter()
+    out_cases, fig_runs = [], {}
+    for c in cases:
+        s0 = case_setup(c, base)
+        w = time.perf_counter()
+        dem = run_dem_column(s0)
+        dem_wall = time.perf_counter() - w
+        t_d, pos, floor = dem
+        d = s0.diameter
+        dem_m = _metrics(t_d, pos[:, -1], pos.mean(axis=1), s0)
+        runs = {}
+        for form in formulations:
+            s = s0.with_(formulation=form)
+            w = time.perf_counter()
+            run = run_bsr_column(s)
+            wall = time.perf_counter() - w
+            runs[form] = run
+            m = _metrics(run.t, run.top, run.mass_centre, s)
+            rms = float(np.sqrt(np.mean(((np.interp(t_d, run.t, run.mass_centre) - pos.mean(axis=1)) / d) ** 2)))
+            rise = (m["top_max_over_d"] - m["top_rest_over_d"]) / (dem_m["top_max_over_d"] - dem_m["top_rest_over_d"]) - 1
+            entry = {
+                "name": c["name"], "formulation": form, "d": d, "a_over_d": s.a_over_d, "taps": s.n_taps,
+                "tap_period": s.tap_period, "t_end": s.t_end, "points_per_diameter": s.points_per_diameter,
+                "stiffness_factor": s.stiffness_factor, "calibrated_on": False,
+                "bsr": m | {"wall_s": wall, "steps": run.steps,
+                            "mass_drift": float(np.max(np.abs(run.mass - run.mass[0])) / run.mass[0]),
+                            "min_density": float(run.rho.min())},
+                "dem": dem_m | {"wall_s": dem_wall},
+                "mass_centre_rms_over_d": rms,
+                "top_max_rel_diff": m["top_max_over_d"] / dem_m["top_max_over_d"] - 1.0,
+                "t_top_max_rel_diff": m["t_top_max"] / dem_m["t_top_max"] - 1.0,
+                "rise_rel_diff": rise,
+            }
+            out_cases.append(entry)
+            if log:
+                log(f"  {c['name']:22s} {form:10s}: top {m['top_max_over_d']:.2f} d at {m['t_top_max']:.3f} s | DEM "
+                    f"{dem_m['top_max_over_d']:.2f} d at {dem_m['t_top_max']:.3f} s | dtop "
+                    f"{100 * entry['top_max_rel_diff']:+.1f}% rise {100 * rise:+.1f}% | mc RMS {rms:.3f} d | "
+                    f"{wall:.1f} s, DEM {dem_wall:.1f} s")
+        fig_runs[c["name"]] = (s0, runs, dem)
+    result = {"d": base.diameter, "scheme": "packing", "kernel": "packing", "calibration": None,
+              "fitted_constants": {}, "cases": out_cases, "setup": base.with_(kernel_name="packing").to_dict(),
+              "wall_time_s": time.perf_counter() - t0}
+    if figures:
+        from .. import plots
+        os.makedirs(figures, exist_ok=True)
+        for name, (s0, runs, dem) in fig_runs.items():
+            plots.packing_case_figures(name, s0, runs, dem, figures)
+        result["figures"] = sorted(os.listdir(figures))
+    return result
+
+
+def format_packing_table(result) -> str:
+    lines = ["packing continuum against the DEM, nothing fitted (fitted_constants = {})",
+             f"{'case':22s} {'formulation':11s} {'top/d':>7s} {'t [s]':>6s} {'DEM top/d':>9s} {'t [s]':>6s} "
+             f"{'dtop':>7s} {'dt':>7s} {'drise':>7s} {'mc RMS/d':>8s}"]
+    for c in result["cases"]:
+        lines.append(f"{c['name']:22s} {c['formulation']:11s} {c['bsr']['top_max_over_d']:7.2f} "
+                     f"{c['bsr']['t_top_max']:6.3f} {c['dem']['top_max_over_d']:9.2f} {c['dem']['t_top_max']:6.3f} "
+                     f"{100 * c['top_max_rel_diff']:6.1f}% {100 * c['t_top_max_rel_diff']:6.1f}% "
+                     f"{100 * c['rise_rel_diff']:6.1f}% {c['mass_centre_rms_over_d']:8.3f}")
+    return "\n".join(lines)
