@@ -283,13 +283,19 @@ def _main(args) -> int:
     print(f"bsrflow {args.command}: tapped column, d = {base.diameter} m, scheme {args.scheme}")
     result = compare(base, scheme=args.scheme, figures=figures)
     print(format_table(result))
+    if args.command == "demo":
+        from .compare_packing import demo_packing, format_demo_table
+        print("the packing continuum on the same cases (nothing fitted), both formulations:")
+        result = demo_packing(result, base, figures=os.path.join(args.out, "figures_packing"))
+        print(format_demo_table(result))
     if json_path:
         os.makedirs(os.path.dirname(os.path.abspath(json_path)), exist_ok=True)
         with open(json_path, "w") as fh:
             json.dump(result, fh, indent=2)
         print(f"wrote {json_path}")
     if figures:
-        print(f"figures in {figures}/")
+        print(f"figures in {figures}/" + (f" and {os.path.join(args.out, 'figures_packing')}/"
+                                         if args.command == "demo" else ""))
     return 0
 
 

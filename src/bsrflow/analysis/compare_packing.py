@@ -30,7 +30,8 @@ import numpy as np
 
 from ..physics.column import ColumnSetup, run_bsr_column
 
-__all__ = ["PACKING_CASES", "case_setup", "compare_packing", "coarse_grained_density", "format_packing_table"]
+__all__ = ["PACKING_CASES", "case_setup", "compare_packing", "coarse_grained_density", "format_packing_table",
+           "demo_packing", "format_demo_table"]
 
 PACKING_CASES = ([dict(name=f"d{int(round(d * 1000))}mm_a{a}", diameter=d, a_over_d=a, n_taps=1)
                   for d in (0.005, 0.010, 0.022) for a in (0.5, 0.75, 1.0, 1.5)]
@@ -133,4 +134,66 @@ def format_packing_table(result) -> str:
                      f"{c['bsr']['t_top_max']:6.3f} {c['dem']['top_max_over_d']:9.2f} {c['dem']['t_top_max']:6.3f} "
                      f"{100 * c['top_max_rel_diff']:6.1f}% {100 * c['t_top_max_rel_diff']:6.1f}% "
                      f"{100 * c['rise_rel_diff']:6.1f}% {c['mass_centre_rms_over_d']:8.3f}")
+    return "\n".join(lines)
+
+
+def demo_packing(seed_result: dict, base: ColumnSetup, figures=None, formulations=("eulerian", "lagrangian"),
+                 log=print) -> dict:
+    """``make demo``: the packing continuum (nothing fitted) on the cases of the seed comparison
+    ``seed_result`` (:func:`bsrflow.analysis.compare.compare`), with the calibrated seed kernel
+    and the DEM on the same figures; returns ``seed_result`` with ``"packing"`` (a list of case
+    entries as in :func:`compare_packing`) and ``"packing_fitted_constants": {}`` added."""
+    from .compare import CASES, run_dem_column
+    cal = seed_result["calibration"]
+    entries = []
+    for c in CASES:
+        s0 = base.with_(a_over_d=c["a_over_d"], n_taps=c["n_taps"], t_end=c["t_end"])
+        seed_run = run_bsr_column(s0.with_(m0=cal["m0"], kernel_dissipation=cal["kernel_dissipation"]))
+        dem = run_dem_column(s0)
+        t_d, pos, _ = dem
+        d = s0.diameter
+        dem_m = _metrics(t_d, pos[:, -1], pos.mean(axis=1), s0)
+        runs = {}
+        for form in formulations:
+            s = s0.with_(kernel_name="packing", formulation=form)
+            w = time.perf_counter()
+            run = run_bsr_column(s)
+            wall = time.perf_counter() - w
+            runs[form] = run
+            m = _metrics(run.t, run.top, run.mass_centre, s)
+            rms = float(np.sqrt(np.mean(((np.interp(t_d, run.t, run.mass_centre) - pos.mean(axis=1)) / d) ** 2)))
+            rise = (m["top_max_over_d"] - m["top_rest_over_d"]) / (dem_m["top_max_over_d"] - dem_m["top_rest_over_d"]) - 1
+            entries.append({"name": c["name"], "formulation": form, "d": d, "a_over_d": s.a_over_d, "taps": s.n_taps,
+                            "calibrated_on": False, "points_per_diameter": s.points_per_diameter,
+                            "bsr": m | {"wall_s": wall, "steps": run.steps,
+                                        "mass_drift": float(np.max(np.abs(run.mass - run.mass[0])) / run.mass[0]),
+                                        "min_density": float(run.rho.min())},
+                            "dem": dem_m, "mass_centre_rms_over_d": rms,
+                            "top_max_rel_diff": m["top_max_over_d"] / dem_m["top_max_over_d"] - 1.0,
+                            "t_top_max_rel_diff": m["t_top_max"] / dem_m["t_top_max"] - 1.0,
+                            "rise_rel_diff": rise})
+            if log:
+                log(f"  packing {form:10s} {c['name']}: top {m['top_max_over_d']:.2f} d at {m['t_top_max']:.3f} s, "
+                    f"mc RMS {rms:.3f} d, {wall:.1f} s")
+        if figures:
+            from .. import plots
+            plots.packing_case_figures(c["name"], s0, runs, dem, figures, seed_run=seed_run)
+    seed_result["packing"] = entries
+    seed_result["packing_fitted_constants"] = {}
+    if figures:
+        seed_result["figures_packing"] = sorted(os.listdir(figures))
+    return seed_result
+
+
+def format_demo_table(result) -> str:
+    """One table: the seed kernel (calibrated) and the packing continuum (nothing fitted)."""
+    lines = [f"{'case':18s} {'model':28s} {'top/d':>7s} {'t [s]':>6s} {'DEM top/d':>9s} {'t [s]':>6s} "
+             f"{'dtop':>7s} {'dt':>7s} {'mc RMS/d':>8s}"]
+    rows = [(c, "seed kernel (m0, eps fitted)") for c in result["cases"]]
+    rows += [(c, f"packing {c['formulation']} (none fitted)") for c in result.get("packing", [])]
+    for c, model in sorted(rows, key=lambda r: r[0]["name"]):
+        lines.append(f"{c['name']:18s} {model:28s} {c['bsr']['top_max_over_d']:7.2f} {c['bsr']['t_top_max']:6.3f} "
+                     f"{c['dem']['top_max_over_d']:9.2f} {c['dem']['t_top_max']:6.3f} "
+                     f"{100 * c['top_max_rel_diff']:6.1f}% {100 * c['t_top_max_rel_diff']:6.1f}% "
+                     f"{c['mass_centre_rms_over_d']:8.3f}")
     return "\n".join(lines)

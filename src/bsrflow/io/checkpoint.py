@@ -44,6 +44,9 @@ class Checkpoint:
     n_snapshots: int
     config: str
     version: str = __version__
+    fields: dict | None = None
+    """The named state fields of discretisations other than the seed's grid (the packing
+    formulations: ``EulerianPacking.fields``, ``LagrangianPacking.fields``), history included."""
 
 
 def checkpoint_path(out) -> str:
@@ -61,7 +64,8 @@ def write_checkpoint(path, ck: Checkpoint) -> None:
                      rho=np.asarray(ck.rho, float), tracers=np.asarray(ck.tracers, float),
                      steps=np.int64(ck.steps), rejected_steps=np.int64(ck.rejected_steps),
                      wall_time=np.float64(ck.wall_time), n_snapshots=np.int64(ck.n_snapshots),
-                     config=np.str_(ck.config), version=np.str_(ck.version))
+                     config=np.str_(ck.config), version=np.str_(ck.version),
+                     **{f"field_{k}": np.asarray(v, float) for k, v in (ck.fields or {}).items()})
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
@@ -81,6 +85,7 @@ def read_checkpoint(path) -> Checkpoint:
                               tracers=z["tracers"].copy(), steps=int(z["steps"]),
                               rejected_steps=int(z["rejected_steps"]), wall_time=float(z["wall_time"]),
                               n_snapshots=int(z["n_snapshots"]), config=str(z["config"]),
-                              version=str(z["version"]))
+                              version=str(z["version"]),
+                              fields={k[6:]: z[k].copy() for k in z.files if k.startswith("field_")} or None)
     except (OSError, KeyError, EOFError, zipfile.BadZipFile) as exc:
         raise ValueError(f"{path}: not a readable bsrflow checkpoint ({type(exc).__name__}: {exc})") from None

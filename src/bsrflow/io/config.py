@@ -154,6 +154,14 @@ FIELDS: tuple[_Field, ...] = (
            hi_open=True),
     _Field("column", "gravity", "float", 9.81, "gravitational acceleration g", "m/s2", 0, 1e4,
            lo_open=True),
+    # [model] -- the interaction
+    _Field("model", "kernel", "str", "seed", "interaction: \"seed\" (the seed's kernel (4.6) with m0 "
+           "and kernel_dissipation, solved by numerics.scheme) or \"packing\" (the contact law's "
+           "continuum: only K, e, d, density, N and g enter; m0, kernel_dissipation, scheme, stepper, "
+           "rtol and atol do not apply)", choices=("seed", "packing")),
+    _Field("model", "stiffness_factor", "float", 1.0, "packing only: the contact stiffness used is K "
+           "times this factor (1: the DEM's own; smaller runs faster at a documented cost in "
+           "accuracy)", "", 0, 1, lo_open=True),
     # [tap] -- half-sine displacement pulses of the floor
     _Field("tap", "a_over_d", "float", 0.75, "tap amplitude a in units of the sphere diameter "
            "(0: no tap)", "", 0, 20),
@@ -178,6 +186,9 @@ FIELDS: tuple[_Field, ...] = (
            "average every step, CFL 0.5) or \"accurate\" (four-stage RK4 rk4_0.4_0.25, CFL 0.2, "
            "sensor-switched dissipation)",
            choices=_SCHEMES),
+    _Field("numerics", "formulation", "str", "eulerian", "packing only: \"eulerian\" (finite volumes "
+           "on the grid) or \"lagrangian\" (material points, density by characteristics); the seed "
+           "kernel is Eulerian", choices=("eulerian", "lagrangian")),
     _Field("numerics", "points_per_diameter", "int", 10, "grid cells per sphere diameter (the "
            "interaction radius d must span at least 2 cells)", "", 2, 1000),
     _Field("numerics", "cfl", "float", None, "Courant number override (default: the preset's); "
@@ -194,8 +205,9 @@ FIELDS: tuple[_Field, ...] = (
 )
 
 _BY_NAME = {f.name: f for f in FIELDS}
-_TABLES = ("column", "tap", "run", "numerics")
+_TABLES = ("model", "column", "tap", "run", "numerics")
 _TABLE_DOC = {
+    "model": "the interaction: the seed's kernel or the packing continuum",
     "column": "the spheres and the continuum constants",
     "tap": "half-sine displacement pulses of the floor (seed eq. 4.5)",
     "run": "times; output goes to the netCDF file given to `bsrflow run --out` (default: CONFIG with .nc)",
@@ -218,6 +230,8 @@ _SETUP_NAMES = {
     "domain_height": "numerics.domain_height", "scheme": "numerics.scheme", "cfl": "numerics.cfl",
     "stepper": "numerics.stepper", "rtol": "numerics.rtol", "impulses": "tap.impulses",
     "period": "tap.period", "start": "tap.start", "amplitude": "tap.a_over_d",
+    "kernel_name": "model.kernel", "formulation": "numerics.formulation",
+    "stiffness_factor": "model.stiffness_factor",
 }
 
 
@@ -472,6 +486,25 @@ class Config:
             rng = f"[{dur:g}, 1e+05] s"
             raise ConfigError("tap.period", f"{v['tap.period']!r} is outside the valid range {rng}: "
                               f"shorter than one tap, which lasts 1/(2f) = {dur:g} s", v["tap.period"], rng)
+        if v["model.kernel"] == "packing":
+            for key in ("numerics.stepper", "numerics.rtol", "numerics.atol"):
+                if v[key] is not None:
+                    raise ConfigError(key, f"{_toml_value(v[key])}: an option of the seed kernel's solver; "
+                                      'with model.kernel = "packing" remove it', v[key])
+            if v["numerics.scheme"] != "seed":
+                raise ConfigError("numerics.scheme", f'"{v["numerics.scheme"]}": a preset of the seed kernel\'s '
+                                  'solver; with model.kernel = "packing" remove it (the packing formulations '
+                                  "have their own schemes)", v["numerics.scheme"])
+            self.column_setup(domain_height=None)
+            return self._validate_domain()
+        if v["numerics.formulation"] != "eulerian":
+            raise ConfigError("numerics.formulation", f'"{v["numerics.formulation"]}" is an option of '
+                              'model.kernel = "packing"; the seed kernel is solved on the grid (valid: "eulerian")',
+                              v["numerics.formulation"])
+        if v["model.stiffness_factor"] != 1.0:
+            raise ConfigError("model.stiffness_factor", f"{v['model.stiffness_factor']!r}: an option of "
+                              'model.kernel = "packing" (the seed kernel\'s stiffness is set by column.m0)',
+                              v["model.stiffness_factor"])
         # scheme: stepper, stability limit, adaptive stepping
         preset = _preset(v["numerics.scheme"])
         stepper = v["numerics.stepper"] or preset.stepper
@@ -497,6 +530,12 @@ class Config:
             raise ConfigError("numerics.atol", f"{_toml_value(v['numerics.atol'])} given without numerics.rtol; "
                               "absolute tolerances apply only to adaptive stepping (set rtol, or remove atol)",
                               v["numerics.atol"])
+        self._validate_domain()
+        self.scheme()
+
+    def _validate_domain(self):
+        """The domain height and the number of cells."""
+        v = self._values
         # the column (ColumnSetup validates again; its messages are renamed to dotted fields)
         setup = self.column_setup(domain_height=None)
         if v["numerics.domain_height"] is not None:
@@ -520,7 +559,6 @@ class Config:
             raise ConfigError("column.diameter", f"{v['column.diameter']!r} m is too small for the domain "
                               f"height {H:.4g} m: even 2 cells per diameter give {2 * H / v['column.diameter']:.3g} "
                               f"cells (at most {_MAX_CELLS})", v["column.diameter"])
-        self.scheme()
 
     def _height_error(self, setup, H) -> ConfigError:
         """The energy-bound domain is taller than _MAX_HEIGHT: name the dominating cause."""
@@ -556,7 +594,10 @@ class Config:
             n_taps=v["tap.n_taps"], tap_period=v["tap.period"], t_end=v["run.t_end"],
             points_per_diameter=v["numerics.points_per_diameter"], scheme=v["numerics.scheme"],
             save_every=v["run.save_every"], domain_height=v["numerics.domain_height"],
-            impulses=v["tap.impulses"])
+            impulses=v["tap.impulses"], kernel_name=v["model.kernel"], formulation=v["numerics.formulation"],
+            stiffness_factor=v["model.stiffness_factor"])
+        if v["model.kernel"] == "packing":
+            args["cfl"] = v["numerics.cfl"]
         args.update(kw)
         try:
             return ColumnSetup(**args)

@@ -115,6 +115,8 @@ def run_config(config: Config, out, *, resume: bool = False, progress=None, log=
         raise ConfigError("--out", f"directory {folder} does not exist")
     if os.path.isdir(out):
         raise ConfigError("--out", f"{out} is a directory; give a file name (e.g. run.nc)")
+    if config["model.kernel"] == "packing":
+        return _run_packing_config(config, out, resume=resume, progress=progress, log=log)
     ckpt_file = checkpoint_path(out)
     setup, grid, model, sim = column_simulation(config)
     save_times = config.save_times()
@@ -219,3 +221,97 @@ def run_config(config: Config, out, *, resume: bool = False, progress=None, log=
                       wall0 + _time.perf_counter() - wall_start, float(top[i]), float(t[i]),
                       resumed_from=t0 if resume else None, compile_time=compile_time,
                       rejected_steps=rejected, adaptive=sim.scheme.rtol is not None)
+
+
+def _run_packing_config(config: Config, out, *, resume=False, progress=None, log=None) -> RunOutcome:
+    """:func:`run_config` for ``model.kernel = "packing"``: the same netCDF output, checkpoints
+    of the discretisation's named fields (history included) and resume, through the packing
+    controller :func:`bsrflow.numerics.packing.run_packing`."""
+    from ..numerics.packing import run_packing
+    setup = config.column_setup()
+    disc = setup.packing_discretisation()
+    grid = disc.grid
+    ckpt_file = checkpoint_path(out)
+    save_times, ckpt_times = config.save_times(), config.checkpoint_times()
+    t_end = float(config.run.t_end)
+    n_tr = setup.n_spheres
+    motion = disc.motion
+
+    def floor(t):
+        return motion.state(t)[0]
+
+    steps0, wall0, t0 = 0, 0.0, 0.0
+    if resume:
+        if not os.path.exists(ckpt_file):
+            raise ConfigError("--resume", f"no checkpoint {ckpt_file} to resume from (checkpoints are "
+                              "written when run.checkpoint_every > 0); run without --resume to start over")
+        if not os.path.exists(out):
+            raise ConfigError("--resume", f"the checkpoint {ckpt_file} exists but the output {out} does not; "
+                              "run without --resume to start over")
+        try:
+            ck = read_checkpoint(ckpt_file)
+            old = Config.from_dict(tomllib.loads(ck.config))
+        except (ValueError, tomllib.TOMLDecodeError) as exc:
+            raise ConfigError("--resume", f"cannot read the checkpoint: {exc}") from None
+        diff = _config_difference(config, old)
+        if diff:
+            raise ConfigError("--resume", f"the config differs from the checkpoint's in {diff}; resume with "
+                              "the same config or run without --resume to start over")
+        try:
+            disc.load_fields(ck.fields or {})
+        except (KeyError, ValueError) as exc:
+            raise ConfigError("--resume", f"the checkpoint's state does not match the config: {exc}") from None
+        disc.counters[0] = ck.steps
+        disc.steps = ck.steps
+        writer = NetCDFWriter.resume(out, ck.t, grid.x, grid.dx, n_tr, floor, expected_snapshots=save_times.size)
+        expected = save_times[save_times < ck.t]
+        kept = writer.series("time")
+        if kept.size != expected.size or not np.array_equal(kept, expected):
+            writer.close("resume failed: snapshots missing before the checkpoint")
+            raise ConfigError("--resume", f"{out} holds {kept.size} snapshots before the checkpoint time "
+                              f"t = {ck.t:.6g} s, expected {expected.size}; run without --resume to start over")
+        t0, steps0, wall0 = ck.t, ck.steps, ck.wall_time
+        log(f"resuming from the checkpoint at t = {t0:.6g} s ({kept.size} snapshots kept in {out})")
+    else:
+        if os.path.exists(ckpt_file):
+            os.remove(ckpt_file)
+        attrs = {"config": config.to_toml(), "scheme": f"packing_{disc.name}", "diameter": float(setup.diameter),
+                 "kernel": "packing", "formulation": disc.name}
+        writer = NetCDFWriter(out, grid.x, grid.dx, n_tr, floor, attrs, expected_snapshots=save_times.size)
+    log(f"compiling the {disc.name} packing solver (once per process)")
+    compile_start = _time.perf_counter()
+    disc.advance(t0, t0)
+    wall_start = _time.perf_counter()
+    if progress is not None:
+        progress(t0)
+
+    def on_checkpoint(t, d):
+        write_checkpoint(ckpt_file, Checkpoint(
+            t=t, u=np.zeros(0), rho=np.zeros(0), tracers=np.zeros(0), steps=int(d.counters[0]), rejected_steps=0,
+            wall_time=wall0 + _time.perf_counter() - wall_start, n_snapshots=writer.n, config=config.to_toml(),
+            fields={k: v.copy() for k, v in d.fields.items()}))
+        if progress is not None:
+            progress(t)
+
+    try:
+        run_packing(disc, t_end, save_times[save_times >= t0], t_start=t0, observers=[writer], progress=progress,
+                    extra_event_times=ckpt_times[ckpt_times > t0 - 1e-15], on_event=on_checkpoint, restart=resume)
+    except SimulationError as exc:
+        writer.close(str(exc))
+        raise
+    except KeyboardInterrupt:
+        writer.close(f"interrupted after {writer.n} snapshots")
+        raise
+    except BaseException as exc:
+        writer.close(f"failed: {type(exc).__name__}: {exc}")
+        raise
+    steps = int(disc.counters[0])
+    writer.close("ok", steps=np.int64(steps), rejected_steps=np.int64(0))
+    if os.path.exists(ckpt_file):
+        os.remove(ckpt_file)
+    t = writer.series("time")
+    top = writer.series("top") / setup.diameter
+    i = int(np.nanargmax(top)) if np.any(np.isfinite(top)) else 0
+    return RunOutcome(out, "ok", writer.n, float(t[-1]), steps, wall0 + _time.perf_counter() - wall_start,
+                      float(top[i]), float(t[i]), resumed_from=t0 if resume else None,
+                      compile_time=wall_start - compile_start)

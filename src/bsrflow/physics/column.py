@@ -32,7 +32,7 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 
 from ..numerics.grid import Grid1D
-from ..numerics.solver import Scheme, Simulation
+from ..numerics.solver import Scheme, Simulation, save_schedule
 from .kernels import walton_braun_from_contact
 from .model import BSRModel
 from .motion import HalfSineTaps
@@ -301,21 +301,13 @@ def run_bsr_column(setup: ColumnSetup, scheme: Scheme | str | None = None, obser
     return column_run_from_result(setup, grid, res)
 
 
-def save_times_of(setup: ColumnSetup) -> np.ndarray:
-    """Save times 0, Δ, 2Δ, ... up to t_end (t_end included) [s]."""
-    n = int(math.floor(setup.t_end / setup.save_every * (1 + 1e-12)))
-    times = np.arange(n + 1) * setup.save_every
-    if setup.t_end - times[-1] > 1e-12 * setup.t_end:
-        times = np.append(times, setup.t_end)
-    return times
-
-
 def run_packing_column(setup: ColumnSetup, observers=(), progress=None) -> ColumnRun:
     """Run the packing continuum of the column (``setup.kernel_name == "packing"``) in
     ``setup.formulation`` from rest to ``setup.t_end``."""
     from ..numerics.packing import run_packing
     disc = setup.packing_discretisation()
-    res = run_packing(disc, setup.t_end, save_times_of(setup), observers=observers, progress=progress)
+    res = run_packing(disc, setup.t_end, save_schedule(0.0, setup.t_end, setup.save_every), observers=observers,
+                      progress=progress)
     res.info["scheme"] = f"packing_{disc.name}"
     return column_run_from_result(setup, disc.grid, res)
 
