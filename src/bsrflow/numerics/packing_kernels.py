@@ -164,6 +164,8 @@ def fv_advance(q, t, t_stop, dx, cfl, c_bound, d, m, k1, k2, rho_tiny, rho_floor
     q1 = q.copy()
     q2 = q.copy()
     dq = np.zeros((3, n))
+    inc1 = np.zeros((3, n))
+    inc2 = np.zeros((3, n))
     w = np.zeros((3, n + 2 * NG + 1))
     flux = np.zeros((3, n + 1))
     top = active_top(q, n - 1)
@@ -183,24 +185,27 @@ def fv_advance(q, t, t_stop, dx, cfl, c_bound, d, m, k1, k2, rho_tiny, rho_floor
         if t + dt >= t_stop:
             dt = t_stop - t
             last = True
-        # stage 1
+        # stage 1 (increments k = Δt L(.) kept apart from the state, so that a resting state's
+        # round-off does not accumulate in the same direction step after step)
         fill_ghosts(q, hi)
         fv_rhs(q, dq, hi, dx, -gravity - fn(t, params)[2], d, m, k1, k2, c_bound, rho_tiny, w, flux)
         for v in range(3):
             for k in range(hi + 1):
-                q1[v, NG + k] = q[v, NG + k] + dt * dq[v, k]
+                inc1[v, k] = dt * dq[v, k]
+                q1[v, NG + k] = q[v, NG + k] + inc1[v, k]
         # stage 2
         fill_ghosts(q1, hi)
         fv_rhs(q1, dq, hi, dx, -gravity - fn(t + dt, params)[2], d, m, k1, k2, c_bound, rho_tiny, w, flux)
         for v in range(3):
             for k in range(hi + 1):
-                q2[v, NG + k] = 0.75 * q[v, NG + k] + 0.25 * (q1[v, NG + k] + dt * dq[v, k])
-        # stage 3
+                inc2[v, k] = dt * dq[v, k]
+                q2[v, NG + k] = q[v, NG + k] + 0.25 * (inc1[v, k] + inc2[v, k])
+        # stage 3: q + (k1 + k2)/6 + 2 k3/3, the Shu–Osher form rewritten in increments
         fill_ghosts(q2, hi)
         fv_rhs(q2, dq, hi, dx, -gravity - fn(t + 0.5 * dt, params)[2], d, m, k1, k2, c_bound, rho_tiny, w, flux)
         for v in range(3):
             for k in range(hi + 1):
-                q[v, NG + k] = q[v, NG + k] / 3.0 + 2.0 / 3.0 * (q2[v, NG + k] + dt * dq[v, k])
+                q[v, NG + k] += (inc1[v, k] + inc2[v, k]) / 6.0 + (2.0 / 3.0) * (dt * dq[v, k])
         fv_post_step(q, hi, d, m, rho_floor)
         t = t_stop if last else t + dt
         counters[0] += 1

@@ -247,6 +247,41 @@ class ColumnSetup:
         return asdict(self)
 
 
+STIFFNESS_MACH = 0.01
+"""Default impact Mach number of the reduced-stiffness option (:func:`suggest_stiffness_factor`)."""
+
+STIFFNESS_ERROR_BOUND = {"top_max_rel": 0.01, "mass_centre_rms_over_d": 0.1}
+"""The documented cost of the reduced stiffness at impact Mach number ≤ 0.01: the top maximum within
+1 % and the mass-centre RMS within 0.1 d of the true stiffness's (measured on the 14 cases of the
+packing comparison by ``python bench/packing_stiffness.py``; docs/model.md, tested)."""
+
+
+def impact_speed_bound(setup: ColumnSetup) -> float:
+    """Upper bound on the speed [m/s] at which the column meets the floor or itself: 3aω (the
+    energy bound's launch speed; the DEM's top sphere leaves at about 2.05 aω), at least the
+    free-fall speed √(2 g d) of one diameter."""
+    launch = 3.0 * setup.amplitude * setup.omega if setup.n_taps > 0 else 0.0
+    return max(launch, math.sqrt(2.0 * setup.gravity * setup.diameter))
+
+
+def impact_mach(setup: ColumnSetup) -> float:
+    """M = (impact speed bound) / (packing wave speed at the stiffness used): the strain of the
+    packing when the column lands is about M, so its dynamics depart from the rigid limit by
+    O(M) (docs/model.md, "Stiffness")."""
+    return impact_speed_bound(setup) / setup.packing_law().wave_speed()
+
+
+def suggest_stiffness_factor(setup: ColumnSetup, mach: float = STIFFNESS_MACH) -> float:
+    """The reduced-stiffness option: the smallest factor φ in (0, 1] for which the impact Mach
+    number stays at most ``mach``: φ = min(1, (v_impact / (mach c_true))²), c_true = d√(K2/m)
+    at the true stiffness.  The explicit step then grows by 1/√φ."""
+    if not (np.isfinite(mach) and 0.0 < mach <= 1.0):
+        raise ValueError(f"mach = {mach!r} is outside the valid range (0, 1]")
+    true = setup.with_(stiffness_factor=1.0)
+    c = true.packing_law().wave_speed()
+    return float(min(1.0, (impact_speed_bound(true) / (mach * c)) ** 2))
+
+
 def initial_density(setup: ColumnSetup, x: np.ndarray) -> np.ndarray:
     """Line density [kg/m] of the stacked spheres at heights x [m] (module docstring)."""
     d = setup.diameter

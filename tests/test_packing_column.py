@@ -1,0 +1,165 @@
+"""The packing continuum in the package's workflow (issue #18): config fields, `bsrflow run` output
+and restart with the history field, the comparison's JSON, the two formulations against each other
+and against the DEM, the stiffness option's documented bound.
+
+Small columns and coarse resolutions keep this fast; the numbers of the README come from
+`bsrflow compare --kernel packing` and the bench scripts, not from here.
+"""
+import json
+import math
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from bsrflow.analysis.compare import run_dem_column
+from bsrflow.analysis.compare_packing import PACKING_CASES, compare_packing
+from bsrflow.cli import main
+from bsrflow.io.config import Config, ConfigError
+from bsrflow.io.runner import run_config
+from bsrflow.physics.column import (STIFFNESS_ERROR_BOUND, ColumnSetup, impact_mach, run_bsr_column,
+                                    suggest_stiffness_factor)
+
+SMALL = dict(kernel_name="packing", n_spheres=6, diameter=0.022, a_over_d=0.75, tap_start=0.05, t_end=0.35,
+             points_per_diameter=4, save_every=0.005)
+
+
+def _top_peak(run, s):
+    k = int(np.argmax(np.where(run.t >= s.tap_start, run.top, -np.inf)))
+    return run.top[k] / s.diameter, run.t[k]
+
+
+@pytest.mark.parametrize("form", ["eulerian", "lagrangian"])
+def test_small_column_mass_positivity_and_flight(form):
+    s = ColumnSetup(**SMALL, formulation=form)
+    r = run_bsr_column(s)
+    assert r.info["status"] == "ok"
+    assert np.max(np.abs(r.mass / r.mass[0] - 1)) < 1e-12
+    assert r.rho.min() >= 0.0
+    assert np.all(np.isfinite(r.rho)) and np.all(np.isfinite(r.u))
+    top, t = _top_peak(r, s)
+    assert top > r.top[0] / s.diameter + 2.0          # the tap throws the top sphere up by several d
+    # tracers: one per sphere centre, ordered, the top sphere last
+    assert r.tracers.shape[1] == s.n_spheres
+    assert np.all(np.diff(r.tracers, axis=1) > 0)
+    assert np.allclose(r.tracers[0] / s.diameter, np.arange(s.n_spheres) + 0.5, atol=1e-3)
+
+
+def test_formulations_agree_and_follow_the_dem_mass_centre():
+    s = ColumnSetup(**SMALL)
+    runs = {f: run_bsr_column(s.with_(formulation=f)) for f in ("eulerian", "lagrangian")}
+    tops = {f: _top_peak(r, s)[0] for f, r in runs.items()}
+    assert abs(tops["eulerian"] / tops["lagrangian"] - 1) < 0.02
+    t_d, pos, _ = run_dem_column(s)
+    for r in runs.values():
+        rms = np.sqrt(np.mean(((np.interp(t_d, r.t, r.mass_centre) - pos.mean(axis=1)) / s.diameter) ** 2))
+        assert rms < 0.5
+
+
+def test_stiffness_option_within_its_documented_bound():
+    s = ColumnSetup(**(SMALL | dict(n_spheres=20, t_end=0.9, tap_start=0.1)), formulation="lagrangian")
+    phi = suggest_stiffness_factor(s)
+    assert 0.0 < phi < 0.5                              # a real reduction here
+    reduced = s.with_(stiffness_factor=phi)
+    assert math.isclose(impact_mach(reduced), 0.01, rel_tol=1e-9)
+    true, red = run_bsr_column(s), run_bsr_column(reduced)
+    assert red.steps < 0.8 * true.steps
+    t0, t1 = _top_peak(true, s)[0], _top_peak(red, s)[0]
+    assert abs(t1 / t0 - 1) <= STIFFNESS_ERROR_BOUND["top_max_rel"]
+    rms = np.sqrt(np.mean(((np.interp(true.t, red.t, red.mass_centre) - true.mass_centre) / s.diameter) ** 2))
+    assert rms <= STIFFNESS_ERROR_BOUND["mass_centre_rms_over_d"]
+    assert suggest_stiffness_factor(s, mach=1e-9) == 1.0     # never stiffer than the contact law
+    with pytest.raises(ValueError, match="mach"):
+        suggest_stiffness_factor(s, mach=0.0)
+
+
+def test_compare_json_has_no_fitted_constants(tmp_path):
+    case = dict(name="small", diameter=0.022, a_over_d=0.75, n_taps=1)
+    base = ColumnSetup(n_spheres=6, points_per_diameter=4, tap_start=0.05)
+    res = compare_packing(base, cases=[case], formulations=("lagrangian",), figures=str(tmp_path / "fig"), log=None)
+    assert res["fitted_constants"] == {}
+    assert res["calibration"] is None
+    for key in ("d", "scheme", "cases", "setup", "wall_time_s", "figures"):
+        assert key in res
+    c = res["cases"][0]
+    for key in ("name", "a_over_d", "taps", "calibrated_on", "bsr", "dem", "mass_centre_rms_over_d",
+                "top_max_rel_diff", "t_top_max_rel_diff", "rise_rel_diff", "formulation"):
+        assert key in c
+    assert c["calibrated_on"] is False
+    assert {"small_density.png", "small_trajectories.png", "small_top_centre.png"} <= set(res["figures"])
+    json.dumps(res)                                        # JSON-ready
+
+
+def test_case_list_is_the_issues():
+    names = {c["name"] for c in PACKING_CASES}
+    assert len(PACKING_CASES) == 14
+    for d in (5, 10, 22):
+        for a in (0.5, 0.75, 1.0, 1.5):
+            assert f"d{d}mm_a{a}" in names
+    three = [c for c in PACKING_CASES if c["n_taps"] == 3]
+    assert {c["a_over_d"] for c in three} == {0.75, 1.0}
+    assert all(c["tap_period"] == 1.0 and c["diameter"] == 0.022 for c in three)
+
+
+def test_config_fields_and_refusals():
+    c = Config.default().with_overrides({"model.kernel": "packing", "numerics.formulation": "lagrangian"})
+    s = c.column_setup()
+    assert (s.kernel_name, s.formulation) == ("packing", "lagrangian")
+    for over, field in [({"model.kernel": "nope"}, "model.kernel"),
+                        ({"numerics.formulation": "lagrangian"}, "numerics.formulation"),
+                        ({"model.stiffness_factor": 0.5}, "model.stiffness_factor"),
+                        ({"model.kernel": "packing", "numerics.scheme": "accurate"}, "numerics.scheme"),
+                        ({"model.kernel": "packing", "numerics.stepper": "rk4"}, "numerics.stepper"),
+                        ({"model.kernel": "packing", "numerics.cfl": 0.6}, "numerics.cfl"),
+                        ({"model.kernel": "packing", "model.stiffness_factor": 1.5}, "model.stiffness_factor")]:
+        with pytest.raises(ConfigError) as exc:
+            Config.default().with_overrides(over)
+        assert str(exc.value).startswith(field), (over, str(exc.value))
+
+
+def test_cli_unknown_kernel_and_formulation_exit_2(tmp_path, capsys):
+    cfg = tmp_path / "col.toml"
+    assert main(["init", str(cfg)]) == 0
+    for opt in ("model.kernel=foo", "numerics.formulation=bar"):
+        rc = main(["run", str(cfg), "--out", str(tmp_path / "x.nc"), "--quiet", "--set", opt])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert rc == 2 and len(err) == 1 and opt.split("=")[0] in err[0]
+    assert main(["compare", "--kernel", "foo"]) == 2
+    assert main(["compare", "--kernel", "packing", "--formulation", "upwind"]) == 2
+    assert main(["compare", "--kernel", "packing", "--cases", "nosuch"]) == 2
+    assert main(["compare", "--formulation", "eulerian"]) == 2       # a packing-only option
+    assert not (tmp_path / "x.nc").exists()
+
+
+@pytest.mark.parametrize("form", ["eulerian", "lagrangian"])
+def test_run_output_and_restart_bit_for_bit(tmp_path, form):
+    over = {"model.kernel": "packing", "numerics.formulation": form, "column.n_spheres": 6,
+            "tap.start": 0.05, "run.t_end": 0.3, "run.save_every": 0.01, "run.checkpoint_every": 0.05,
+            "numerics.points_per_diameter": 4}
+    cfg = Config.default().with_overrides(over)
+    full = run_config(cfg, tmp_path / "full.nc")
+    assert full.status == "ok"
+    with xr.open_dataset(tmp_path / "full.nc") as ds:
+        a = ds.load()
+    assert a.attrs["kernel"] == "packing" and a.attrs["formulation"] == form
+    assert a["tracer_height"].shape == (31, 6) and a["tracer_height"].attrs["units"] == "m"
+    assert np.allclose(a["top"].values, a["tracer_height"].values[:, -1])
+    assert a["mass_centre"].attrs["units"] == "m"
+
+    class Stop(Exception):
+        pass
+
+    def stop_late(t):
+        if t > 0.17:
+            raise Stop()
+
+    with pytest.raises(Stop):
+        run_config(cfg, tmp_path / "part.nc", progress=stop_late)
+    assert (tmp_path / "part.nc.ckpt").exists()
+    resumed = run_config(cfg, tmp_path / "part.nc", resume=True)
+    assert resumed.resumed_from == pytest.approx(0.15)
+    with xr.open_dataset(tmp_path / "part.nc") as ds:
+        b = ds.load()
+    for k in ("rho", "u", "tracer_height", "mass_centre", "top", "kinetic_energy"):
+        assert np.array_equal(a[k].values, b[k].values), k
+    assert int(a.attrs["steps"]) == int(b.attrs["steps"])
