@@ -188,11 +188,10 @@ def ssp_rk3_step(q, t, dt, accel, dx, d, m, k1, k2, c_cap, rho_tiny, rho_floor):
     Returns (q_new, hi)."""
     hi = active_top(q) + 3
     s = slice(NG, NG + hi + 1)
-    args = (dx,)
     law = (d, m, k1, k2, c_cap, rho_tiny)
 
     def L(state, time):
-        return fv_rhs(fill_ghosts(state, hi), hi, *args, accel(time), *law)[0]
+        return fv_rhs(fill_ghosts(state, hi), hi, dx, accel(time), *law)[0]
 
     q0 = fill_ghosts(q, hi)
     q1 = q0.copy()
