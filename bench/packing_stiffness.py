@@ -28,7 +28,9 @@ from bsrflow.physics.column import (STIFFNESS_ERROR_BOUND, ColumnSetup, impact_m
 
 
 def _peak(run, s):
-    k = int(np.argmax(np.where(run.t >= s.tap_start, run.top, -np.inf)))
+    """The first tap's peak (several taps give nearly equal peaks, whose argmax would jump)."""
+    window = (run.t >= s.tap_start) & (run.t < s.tap_start + (s.tap_period if s.n_taps > 1 else np.inf))
+    k = int(np.argmax(np.where(window, run.top, -np.inf)))
     return float(run.top[k] / s.diameter), float(run.t[k])
 
 
