@@ -97,8 +97,10 @@ def _differences(m, dem_m):
 
 
 def compare_packing(base: ColumnSetup | None = None, cases=None, formulations=("eulerian", "lagrangian"),
-                    figures=None, log=print):
-    """Run the comparison; returns the JSON-ready dict (module docstring)."""
+                    figures=None, log=print, auto_stiffness=False):
+    """Run the comparison; returns the JSON-ready dict (module docstring).  ``auto_stiffness``:
+    each case at the reduced stiffness of impact Mach number 0.01 (``suggest_stiffness_factor``)."""
+    from ..physics.column import suggest_stiffness_factor
     from .compare import run_dem_column
     base = base or ColumnSetup()
     cases = PACKING_CASES if cases is None else cases
@@ -107,7 +109,9 @@ def compare_packing(base: ColumnSetup | None = None, cases=None, formulations=("
     for c in cases:
         s0 = case_setup(c, base)
         w = time.perf_counter()
-        dem = run_dem_column(s0)
+        dem = run_dem_column(s0.with_(stiffness_factor=1.0))       # the DEM at its true stiffness
+        if auto_stiffness:
+            s0 = s0.with_(stiffness_factor=suggest_stiffness_factor(s0))
         dem_wall = time.perf_counter() - w
         t_d, pos, floor = dem
         d = s0.diameter
