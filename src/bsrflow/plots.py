@@ -65,13 +65,16 @@ def trajectories_side_by_side(run, dem, path, title=""):
     plt.close(fig)
 
 
-def top_and_centre(run, dem, path, title=""):
-    """Top and mass-centre heights, BSR against DEM."""
+def top_and_centre_figure(run, dem, title=""):
+    """The figure of :func:`top_and_centre` (returned open, for inspection).  The DEM top is
+    the highest sphere centre at each time, ``pos.max(axis=1)``, the quantity of the metrics
+    (``top_max_over_d``) of ``bsrflow compare`` and ``compare-dump``: for the package's 1-D DEM
+    that is the last sphere, for a dump whatever the order of its atom ids."""
     d = run.setup.diameter
     t_d, pos, _ = dem
     fig, ax = plt.subplots(figsize=(8, 5))
     ax.plot(run.t, run.top / d, "C0", label="BSR top (tracer from top sphere centre)")
-    ax.plot(t_d, pos[:, -1] / d, "C1", label="DEM top sphere centre")
+    ax.plot(t_d, pos.max(axis=1) / d, "C1", label="DEM top (highest sphere centre)")
     ax.plot(run.t, run.mass_centre / d, "C0--", label="BSR mass centre")
     ax.plot(t_d, pos.mean(axis=1) / d, "C1--", label="DEM mass centre")
     ax.set_xlabel("time t [s]")
@@ -80,6 +83,12 @@ def top_and_centre(run, dem, path, title=""):
     ax.legend()
     ax.set_title(title)
     fig.tight_layout()
+    return fig
+
+
+def top_and_centre(run, dem, path, title=""):
+    """Top and mass-centre heights, BSR against DEM (:func:`top_and_centre_figure`)."""
+    fig = top_and_centre_figure(run, dem, title)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
