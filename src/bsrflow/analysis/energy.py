@@ -80,7 +80,10 @@ def energy_study(calibration=None, figures=None, log=print) -> dict:
             info["message"] = str(exc)
         out["runs"][label] = info
         if log:
-            log(f"  {label}: " + ("completed" if exc is None else f"stopped at t = {exc.time:.4f} s: {exc}"))
+            log(f"  {label}: " + ("completed" if exc is None else f"stopped at t = {exc.time:.4f} s: {exc}")
+                + ("" if info["t_first_negative_density_s"] is None else
+                   f"; negative densities from t = {info['t_first_negative_density_s']:.4g} s on "
+                   f"(min {info['min_density_over_line']:.3g} m/d)"))
     # local wave speed along the top and middle tracers of the filtered run
     grid, res = runs["moving_average"]
     line = setup.particle_mass / setup.diameter
