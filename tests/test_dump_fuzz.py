@@ -49,12 +49,14 @@ def _bad_files(tmp_path):
     add("constant_axis", "flat.dump", GOOD, ["--dt", "1e-5", "--axis", "y"], "--axis y")
     add("conflicting_dt", "timed.dump", TIMED, ["--dt", "2e-4"], "contradicts")
     add("no_times", "untimed.dump", GOOD, [], "--dt")
+    add("floor_above_spheres", "low.dump", GOOD, ["--dt", "1e-5", "--floor-offset", "1.0", "--tap-start", "0.005"],
+        "--floor-offset 1.0")
     add("directory", "adir.dump", None, ["--dt", "1e-5"], "cannot be read")
     return cases
 
 
 CASES = ["gz_not_gzip", "gz_truncated", "gz_garbage", "nan_coordinate", "inf_coordinate", "zero_atoms",
-         "one_frame", "constant_axis", "conflicting_dt", "no_times", "directory"]
+         "one_frame", "constant_axis", "conflicting_dt", "no_times", "floor_above_spheres", "directory"]
 
 
 @pytest.mark.parametrize("case", CASES)

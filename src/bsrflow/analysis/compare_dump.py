@@ -278,6 +278,14 @@ def _main(args) -> int:
     source = SetupSource.load(args.config)
     source.check_names(overrides)
     setup, scheme = source.setup_and_scheme(overrides)
+    t_rel = dump.t - args.time_offset
+    after = (t_rel >= setup.tap_start - 1e-12) & (t_rel <= setup.t_end + 1e-9 * max(1.0, setup.t_end))
+    if after.any():
+        highest = float(np.max(dump.heights(args.axis)[after]) - args.floor_offset)
+        if not highest > 0:
+            raise ValueError(f"--floor-offset {args.floor_offset!r}: the highest sphere centre of the dump after the "
+                             f"first tap is {highest:g} m above the floor at rest, not above it; check the floor "
+                             "offset and --axis")
     print(f"bsrflow compare-dump: {args.dump}: {dump.n_atoms} atoms, {dump.n_snapshots} snapshots, "
           f"t = {dump.t[0]:g} to {dump.t[-1]:g} s; BSR to t = {setup.t_end:g} s, scheme "
           f"{setup.scheme if scheme is None else scheme.name}"
