@@ -251,6 +251,18 @@ def dem_vs_bsr(sizes, repeats, t_end=2.0):
     return rows
 
 
+def _cpu_model() -> str:
+    """The CPU model name (Linux /proc/cpuinfo), else platform.processor(), else 'unknown'."""
+    try:
+        with open("/proc/cpuinfo") as fh:
+            for line in fh:
+                if line.lower().startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--json", default="bench/results.json")
@@ -264,8 +276,12 @@ def main(argv=None):
                        "loadavg_start": os.getloadavg() if hasattr(os, "getloadavg") else None},
            "repeats": reps, "one_core": True, "numpy_reference": {}, "bsrflow": {}, "speedup": {},
            "details": {}}
+    m = out["machine"]
+    print(f"machine: {_cpu_model()}, {m['cpu_count']} CPUs, Python {m['python']}, NumPy {m['numpy']}, "
+          f"numba {m['numba']}; load average {' '.join(f'{v:.2f}' for v in m['loadavg_start'] or ())}", flush=True)
+    out["machine"]["cpu_model"] = _cpu_model()
     print(f"{'grid':6s} {'cells':>6s} {'W':>3s} {'NumPy csups':>12s} {'bsrflow csups':>14s} {'speed-up':>9s} "
-          f"{'vs direct*':>10s} {'max rel diff':>12s}", flush=True)
+          f"{'vs direct*':>10s} {'max rel diff':>12s} {'ns/cell-stage NumPy, bsrflow':>29s}", flush=True)
     for ppd, sc, sr in ((10, 200, 4), (40, 100, 2)):
         if args.quick:
             sc, sr = sc // 4, 1
@@ -277,7 +293,8 @@ def main(argv=None):
         out["details"][key] = r
         print(f"{key:6s} {r['cells']:6d} {r['kernel_radius_cells']:3d} {r['numpy_csups']:12.3e} "
               f"{r['bsrflow_csups']:14.3e} {r['speedup']:9.1f} {r['speedup_over_direct_no_skip']:10.1f} "
-              f"{max(r['max_rel_diff_vs_numpy'], r['max_rel_diff_fast_vs_direct']):12.2e}", flush=True)
+              f"{max(r['max_rel_diff_vs_numpy'], r['max_rel_diff_fast_vs_direct']):12.2e} "
+              f"{1e9 / r['numpy_csups']:15.1f}, {1e9 / r['bsrflow_csups']:.2f}", flush=True)
     print("profile (ns per grid cell-stage, 1.3-s state):", flush=True)
     out["profile"] = {f"ppd{p}": profile(p, reps) for p in (10, 40)}
     for key, prof in out["profile"].items():

@@ -40,8 +40,10 @@ def _relerr(a, b):
                                                   (False, 1 / 32, 0.02, 0.5), (False, 0.0, 0.3, 1.0)])
 def test_step_matches_reference(bcs, stepper, filt, hyper, sel, k2, rng):
     grid = Grid1D(0.0, 1.0, 60, *bcs)                     # radius 0.1 m = 6 cells
+    # check_cfl=False: Euler and Heun without the moving average are unstable at every CFL
+    # number; here a few steps are compared with the reference implementation, not run long
     sim = Simulation(_model(bcs), grid, Scheme(stepper=stepper, filter=filt, dt=1e-3, hyperdiffusion=hyper,
-                                               selective_filter=sel, sensor_dissipation=k2))
+                                               selective_filter=sel, sensor_dissipation=k2, check_cfl=False))
     ref = ReferenceScheme(sim)
     if k2 > 0 and sel == 0.3:
         # a threshold that switches some faces on and leaves others off

@@ -347,3 +347,63 @@ def test_compare_dump_command(tmp_path, dem_result, bsr_run, capsys):
     assert len(err) == 1 and "--dt" in err[0]
     assert main(["compare-dump", path, "--dt", "1e-6", "--set", "bogus=1"]) == 2
     assert "bogus" in capsys.readouterr().err
+
+
+def test_top_is_the_highest_sphere_in_metrics_figure_and_json(tmp_path, small_setup, dem_result, bsr_run):
+    """Atom ids numbered from the top (id 1 the top sphere): the metrics, the JSON and the
+    top-height figure all use the highest sphere centre, not the sphere with the highest id."""
+    from bsrflow.analysis.compare import _metrics
+    from bsrflow.analysis.compare_dump import compare_with_dump
+    from bsrflow.plots import top_and_centre_figure
+
+    res, run, s = dem_result, bsr_run, small_setup
+    # the package's own DEM keeps its spheres in order, so its last sphere is the highest one
+    # (what bsrflow compare's metrics use, positions[:, -1])
+    assert np.all(np.diff(res.positions, axis=1) > 0)
+    path = str(tmp_path / "fromtop.dump")
+    steps_per_sample = int(round((res.t[1] - res.t[0]) / res.dt))
+    n = res.positions.shape[1]
+    write_dump(path, np.arange(res.t.size) * steps_per_sample, res.positions, ids=np.arange(n, 0, -1))
+    dump = read_dump(path, timestep_size=res.dt)
+    assert np.array_equal(dump.heights()[:, 0], res.positions[:, -1])      # id 1 is the top sphere
+    out = compare_with_dump(run, dump, figures=str(tmp_path / "fig"))
+    assert out["dem"] == pytest.approx(_metrics(res.t, res.top(), res.mass_centre(), s), rel=1e-12)
+    assert json.loads(json.dumps(out))["dem"]["top_max_over_d"] == out["dem"]["top_max_over_d"]
+    fig = top_and_centre_figure(run, (dump.t, dump.heights(), None))
+    (line,) = [ln for ln in fig.axes[0].lines if ln.get_label().startswith("DEM top")]
+    np.testing.assert_array_equal(line.get_ydata(), res.top() / s.diameter)
+    after = dump.t >= s.tap_start - 1e-12
+    assert line.get_ydata()[after].max() == pytest.approx(out["dem"]["top_max_over_d"], rel=1e-12)
+    import matplotlib.pyplot as plt
+    plt.close(fig)
+
+
+@pytest.mark.parametrize("file_name, name", [
+    ("dump.z", "dump.z"), ("x.dump", "x"), ("x.dump.gz", "x_gz"), ("run.lammpstrj", "run"),
+    ("tap.column.dump", "tap.column"), ("dump", "dump"), (".dump", ".dump"), ("a/b/col.dump.gz", "col_gz"),
+])
+def test_case_names_from_the_whole_file_name(file_name, name):
+    from bsrflow.analysis.compare_dump import case_name
+    assert case_name(file_name) == name
+
+
+def test_compare_dump_name_option_and_distinct_default_names(tmp_path, dem_result, capsys):
+    """x.dump and x.dump.gz give different figure names; --name sets the name."""
+    from bsrflow.cli import main
+
+    res = dem_result
+    plain = str(tmp_path / "x.dump")
+    dt = _dump_of(res, plain)
+    with open(plain, "rb") as fh, gzip.open(str(tmp_path / "x.dump.gz"), "wb") as gz:
+        gz.write(fh.read())
+    common = ["--dt", repr(dt), "--n-spheres", "3", "--ppd", "4", "--tap-start", "0.02", "--m0", "400",
+              "--t-end", "0.05", "--set", "save_every=0.005"]
+    names = []
+    for p, extra in ((plain, []), (plain + ".gz", []), (plain, ["--name", "mine"])):
+        js = str(tmp_path / "r.json")
+        assert main(["compare-dump", p, *common, *extra, "--json", js]) == 0
+        names.append(json.load(open(js))["name"])
+    assert names == ["x", "x_gz", "mine"]
+    capsys.readouterr()
+    assert main(["compare-dump", plain, *common, "--name", "a/b"]) == 2
+    assert "--name" in capsys.readouterr().err

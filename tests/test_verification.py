@@ -36,8 +36,11 @@ def test_smooth_problem_time_orders():
 
 
 def test_rk4_and_heun_time_orders():
+    # check_cfl=False: Heun without the moving average is unstable at every CFL number (limit 0),
+    # which Scheme refuses by default; over this short smooth run its growth (|g| - 1 = O(ν⁴)
+    # per step) stays far below the time error whose order is measured here
     for stepper, lo, hi in (("heun", 1.8, 2.2), ("rk4", 3.7, 4.4)):
-        case = verify.case_smooth_time(dict(stepper=stepper, filter=False), steps=(64, 128, 256))
+        case = verify.case_smooth_time(dict(stepper=stepper, filter=False, check_cfl=False), steps=(64, 128, 256))
         assert lo < case["observed_order"] < hi, (stepper, case["observed_order"])
 
 

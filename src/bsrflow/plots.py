@@ -39,7 +39,20 @@ def density_snapshots(run, path, times=SNAPSHOT_TIMES, title=""):
 
 def trajectories_side_by_side(run, dem, path, title=""):
     """BSR tracer trajectories (left) and DEM sphere trajectories with the mass centre (right),
-    Figures 4.10/4.11."""
+    Figures 4.10/4.11 (:func:`trajectories_figure`)."""
+    fig = trajectories_figure(run, dem, title)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+
+
+def _legend_below(ax, ncol=2):
+    """A legend under the axes (outside them, so that it hides no data; the peaks of repeated
+    taps reach every corner of the axes)."""
+    return ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=ncol, frameon=False)
+
+
+def trajectories_figure(run, dem, title=""):
+    """The figure of :func:`trajectories_side_by_side`, returned open."""
     s = run.setup
     d = s.diameter
     t_d, pos, floor = dem
@@ -55,32 +68,40 @@ def trajectories_side_by_side(run, dem, path, title=""):
     for ax in (a1, a2):
         ax.set_xlabel("time t [s]")
         ax.grid(alpha=0.3)
-        ax.legend(loc="upper right")
+        _legend_below(ax)
         for tt in s.tap_times():
             ax.axvline(tt, color="grey", ls=":", lw=1)
     a1.set_ylabel("height above the floor at rest, y/d")
     fig.suptitle(title)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    return fig
 
 
-def top_and_centre(run, dem, path, title=""):
-    """Top and mass-centre heights, BSR against DEM."""
+def top_and_centre_figure(run, dem, title=""):
+    """The figure of :func:`top_and_centre` (returned open, for inspection).  The DEM top is
+    the highest sphere centre at each time, ``pos.max(axis=1)``, the quantity of the metrics
+    (``top_max_over_d``) of ``bsrflow compare`` and ``compare-dump``: for the package's 1-D DEM
+    that is the last sphere, for a dump whatever the order of its atom ids."""
     d = run.setup.diameter
     t_d, pos, _ = dem
-    fig, ax = plt.subplots(figsize=(8, 5))
+    fig, ax = plt.subplots(figsize=(8, 5.6))
     ax.plot(run.t, run.top / d, "C0", label="BSR top (tracer from top sphere centre)")
-    ax.plot(t_d, pos[:, -1] / d, "C1", label="DEM top sphere centre")
+    ax.plot(t_d, pos.max(axis=1) / d, "C1", label="DEM top (highest sphere centre)")
     ax.plot(run.t, run.mass_centre / d, "C0--", label="BSR mass centre")
     ax.plot(t_d, pos.mean(axis=1) / d, "C1--", label="DEM mass centre")
     ax.set_xlabel("time t [s]")
     ax.set_ylabel("height above the floor at rest, y/d")
     ax.grid(alpha=0.3)
-    ax.legend()
+    _legend_below(ax)
     ax.set_title(title)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    return fig
+
+
+def top_and_centre(run, dem, path, title=""):
+    """Top and mass-centre heights, BSR against DEM (:func:`top_and_centre_figure`)."""
+    fig = top_and_centre_figure(run, dem, title)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
 
 

@@ -21,6 +21,7 @@ is not a function there, so :func:`case_metrics` restates it).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -30,7 +31,51 @@ import numpy as np
 
 from .compare import _metrics
 
-__all__ = ["case_metrics", "compare_with_dump", "dump_floor", "add_parser"]
+__all__ = ["case_metrics", "compare_with_dump", "check_dump", "case_name", "dump_floor", "add_parser"]
+
+DUMP_SUFFIXES = (".dump", ".lammpstrj", ".lammps")
+"""File-name endings of text dumps left out of a case name (before an optional ``.gz``)."""
+
+
+def case_name(path) -> str:
+    """The case name of a dump file, used in the JSON and the figure file names: the whole
+    file name without a known dump ending (:data:`DUMP_SUFFIXES`); a gzip-compressed file's
+    ``.gz`` becomes ``_gz``, so that ``x.dump`` -> "x" and ``x.dump.gz`` -> "x_gz" do not
+    overwrite each other's figures; ``dump.z`` stays "dump.z"."""
+    base = os.path.basename(os.fspath(path))
+    gz = base.endswith(".gz") and len(base) > 3
+    if gz:
+        base = base[:-3]
+    for suffix in DUMP_SUFFIXES:
+        if base.endswith(suffix) and len(base) > len(suffix):
+            base = base[:-len(suffix)]
+            break
+    return (base or "dump") + ("_gz" if gz else "")
+
+
+def check_dump(dump, axis=None, time_offset: float = 0.0, what_axis: str = "axis") -> None:
+    """ValueError (one line, naming the dump) unless the dump can be compared: times known, at
+    least two snapshots, at least one of them at t - time_offset > 0, and a vertical axis along
+    which the sphere centres vary.  Cheap: run it before the BSR run."""
+    if dump.t is None:
+        raise ValueError(f"{dump.path}: the dump's times are unknown (no ITEM: TIME blocks): give the time "
+                         "step size (--dt SECONDS)")
+    if dump.n_snapshots < 2:
+        raise ValueError(f"{dump.path}: the dump has only one snapshot (timestep {int(dump.timestep[0])}); "
+                         "a comparison of trajectories needs at least two")
+    t_last = float(dump.t[-1]) - float(time_offset)
+    if not t_last > 0:
+        raise ValueError(f"{dump.path}: the dump's last time minus the time offset is {t_last:g} s "
+                         f"(last time {float(dump.t[-1]):g} s, offset {float(time_offset):g} s): need > 0")
+    name = dump.axis if axis is None else str(axis)
+    h = dump.heights(axis)
+    if np.ptp(h) == 0.0:
+        k = "xyz".index(name) if name in "xyz" else int(name)
+        varying = [f"{a} by {np.ptp(dump.positions[:, :, j]):.3g} m" for j, a in enumerate("xyz")
+                   if j != k and np.all(np.isfinite(dump.positions[:, :, j])) and np.ptp(dump.positions[:, :, j]) > 0]
+        raise ValueError(f"{dump.path}: {what_axis} {'xyz'[k]}: the {'xyz'[k]} coordinate of every atom is "
+                         f"{float(h.flat[0]):g} m in every snapshot, so it cannot be the vertical axis"
+                         + (f" (varying: {', '.join(varying)})" if varying else ""))
 
 
 def case_metrics(run, t_dem, top_dem, centre_dem, diameter=None) -> dict:
@@ -49,10 +94,14 @@ def case_metrics(run, t_dem, top_dem, centre_dem, diameter=None) -> dict:
     ref = types.SimpleNamespace(diameter=d, tap_start=s.tap_start)      # what _metrics reads
     bsr = _metrics(run.t, run.top, run.mass_centre, ref)
     dem = _metrics(np.asarray(t_dem), np.asarray(top_dem), np.asarray(centre_dem), ref)
+    if not dem["top_max_over_d"] > 0:
+        raise ValueError(f"the DEM top height reaches at most {dem['top_max_over_d']:.4g} d above the floor at rest "
+                         "after the first tap: the relative difference is undefined (check the floor offset and "
+                         "the axis)")
     rms = float(np.sqrt(np.mean(((np.interp(t_dem, run.t, run.mass_centre) - centre_dem) / d) ** 2)))
     return {"bsr": bsr, "dem": dem, "mass_centre_rms_over_d": rms,
             "top_max_rel_diff": bsr["top_max_over_d"] / dem["top_max_over_d"] - 1.0,
-            "t_top_max_rel_diff": bsr["t_top_max"] / dem["t_top_max"] - 1.0}
+            "t_top_max_rel_diff": (bsr["t_top_max"] / dem["t_top_max"] - 1.0) if dem["t_top_max"] != 0 else None}
 
 
 def dump_floor(setup, t) -> np.ndarray:
@@ -86,19 +135,19 @@ def compare_with_dump(run, dump, floor: float = 0.0, diameter: float | None = No
     offsets), ``bsr_run`` (wall time, steps, mass drift, min density), ``setup``, ``warnings``
     (atom count or sphere diameter differing from the setup's) and ``figures``.
     """
-    if dump.t is None:
-        raise ValueError(f"{dump.path}: the dump's times are unknown: give the time step size (--dt)")
+    check_dump(dump, axis, time_offset)
     s = run.setup
     d = float(diameter or s.diameter)
     if not (math.isfinite(d) and d > 0):
         raise ValueError(f"diameter = {diameter!r} is outside the valid range (0, inf) m")
-    name = name or os.path.basename(dump.path).split(".")[0] or "dump"
+    name = name or case_name(dump.path)
     t_all = np.asarray(dump.t, dtype=float) - float(time_offset)
     tol = 1e-9 * max(1.0, abs(run.t[-1]))
     use = (t_all >= run.t[0] - tol) & (t_all <= run.t[-1] + tol)
-    if use.sum() < 1:
-        raise ValueError(f"{dump.path}: no snapshot lies in the BSR run's time range [{run.t[0]:g}, {run.t[-1]:g}] s "
-                         f"(dump times {t_all[0]:g} to {t_all[-1]:g} s after the time offset {time_offset:g} s)")
+    if use.sum() < 2:
+        raise ValueError(f"{dump.path}: {int(use.sum())} snapshot(s) lie in the BSR run's time range "
+                         f"[{run.t[0]:g}, {run.t[-1]:g}] s, at least two are needed (dump times {t_all[0]:g} to "
+                         f"{t_all[-1]:g} s after the time offset {time_offset:g} s)")
     t_d = t_all[use]
     heights = dump.heights(axis)[use] - float(floor)
     top = heights.max(axis=1)
@@ -136,9 +185,10 @@ def compare_with_dump(run, dump, floor: float = 0.0, diameter: float | None = No
 def format_line(result) -> str:
     """One-line summary in the layout of ``bsrflow compare``'s table."""
     b, m = result["bsr"], result["dem"]
+    dt = result["t_top_max_rel_diff"]
     return (f"{result['name']}: BSR top {b['top_max_over_d']:.2f} d at {b['t_top_max']:.3f} s | "
             f"dump top {m['top_max_over_d']:.2f} d at {m['t_top_max']:.3f} s | "
-            f"dtop {100 * result['top_max_rel_diff']:.1f}% | dt {100 * result['t_top_max_rel_diff']:.1f}% | "
+            f"dtop {100 * result['top_max_rel_diff']:.1f}% | dt {'n/a' if dt is None else f'{100 * dt:.1f}%'} | "
             f"mass-centre RMS {result['mass_centre_rms_over_d']:.3f} d")
 
 
@@ -170,7 +220,11 @@ def add_parser(sub):
     p.add_argument("--config", metavar="CONFIG.toml",
                    help="column configuration (TOML); options below override it")
     p.add_argument("--dt", type=float, metavar="SECONDS",
-                   help="the DEM run's time step [s]: t = timestep * dt (needed unless the dump has ITEM: TIME)")
+                   help="the DEM run's time step [s]: t = timestep * dt, needed unless the dump has ITEM: TIME "
+                        "(then the dump's times are used and a --dt contradicting them is refused)")
+    p.add_argument("--name", metavar="NAME",
+                   help="case name in the JSON and the figure file names (default: the file name without "
+                        ".dump/.lammpstrj/.lammps; .gz becomes _gz)")
     p.add_argument("--axis", default="z", choices=("x", "y", "z"), help="vertical axis of the dump (default z)")
     p.add_argument("--floor-offset", type=float, default=0.0, metavar="M",
                    help="rest position of the floor in the dump's coordinates [m] (default 0)")
@@ -188,17 +242,27 @@ def add_parser(sub):
 
 
 def _main(args) -> int:
-    from ..io.lammps import read_dump
+    from ..io.lammps import read_dump, time_mismatch
     from ..physics.column import run_bsr_column
     from ..tools.setup_source import SetupSource, parse_value
 
     if args.dt is not None and not (math.isfinite(args.dt) and args.dt > 0):
         raise ValueError(f"--dt {args.dt!r} is outside the valid range (0, inf) s")
-    dump = read_dump(args.dump, timestep_size=args.dt, axis=args.axis)
-    if dump.t is None:
-        raise ValueError(f"{args.dump}: the dump has no ITEM: TIME blocks; give the time step with --dt SECONDS")
+    if args.name is not None and (not args.name.strip() or os.sep in args.name):
+        raise ValueError(f"--name {args.name!r}: need a non-empty name without {os.sep!r}")
+    dump = read_dump(args.dump, axis=args.axis)
+    if dump.t is not None and args.dt is not None:
+        bad = time_mismatch(dump.timestep, dump.t, args.dt)
+        if bad:
+            raise ValueError(f"--dt {args.dt!r} contradicts the dump's own ITEM: TIME: {bad}; leave --dt out "
+                             "(the dump's times are used)")
+    elif dump.t is None:
+        if args.dt is None:
+            raise ValueError(f"{args.dump}: the dump has no ITEM: TIME blocks; give the time step with --dt SECONDS")
+        dump = dataclasses.replace(dump, t=dump.timestep * float(args.dt))
     if args.types:
         dump = dump.select(args.types)
+    check_dump(dump, args.axis, args.time_offset, what_axis="--axis")
     overrides = {}
     for item in args.set:
         key, sep, value = item.partition("=")
@@ -214,6 +278,14 @@ def _main(args) -> int:
     source = SetupSource.load(args.config)
     source.check_names(overrides)
     setup, scheme = source.setup_and_scheme(overrides)
+    t_rel = dump.t - args.time_offset
+    after = (t_rel >= setup.tap_start - 1e-12) & (t_rel <= setup.t_end + 1e-9 * max(1.0, setup.t_end))
+    if after.any():
+        highest = float(np.max(dump.heights(args.axis)[after]) - args.floor_offset)
+        if not highest > 0:
+            raise ValueError(f"--floor-offset {args.floor_offset!r}: the highest sphere centre of the dump after the "
+                             f"first tap is {highest:g} m above the floor at rest, not above it; check the floor "
+                             "offset and --axis")
     print(f"bsrflow compare-dump: {args.dump}: {dump.n_atoms} atoms, {dump.n_snapshots} snapshots, "
           f"t = {dump.t[0]:g} to {dump.t[-1]:g} s; BSR to t = {setup.t_end:g} s, scheme "
           f"{setup.scheme if scheme is None else scheme.name}"
@@ -221,7 +293,7 @@ def _main(args) -> int:
              f" (config {args.config}{'' if source.uses_config_module else ', fallback reader'})"))
     run = run_bsr_column(setup, scheme=scheme)
     result = compare_with_dump(run, dump, floor=args.floor_offset, axis=args.axis, time_offset=args.time_offset,
-                               figures=args.figures)
+                               figures=args.figures, name=args.name)
     result["config"] = args.config
     print(format_line(result))
     for w in result["warnings"]:

@@ -6,13 +6,15 @@ speed along tracer trajectories (Appendix A, Figures A.1, A.2) for the tapped co
 * runs the seed preset on the single tap a/d = 1.0 (the case of Figures A.1/A.2) with the
   moving average after every step and without it; the kinetic energy Σ ½ ρ u² Δx [J] (floor
   frame) of each run is normed by its own maximum; a run that stops early reports when and why;
+  snapshots with negative densities, where that sum is no energy and can be negative, are
+  reported (``t_first_negative_density_s``, ``min_density_over_line``) and shaded in the figure;
 * along the tracers started at the top sphere and at the middle sphere, computes the local
   wave speed c² = -dΦ/d log ρ (Appendix A with the sign of (A.3) corrected, see
   :mod:`bsrflow.analysis.wavespeed`) from the interaction acceleration of the saved fields, for
   0.4 s <= t <= 0.9 s.
 
-The continuum constants default to those calibrated by ``bsrflow compare`` (read from
-``--calibration compare.json`` when given).
+The continuum constants are m0 = 410 kg, ε = 0.83 (:data:`DEFAULT_CALIBRATION`, printed by
+the command), or those of a ``bsrflow compare`` JSON given with ``--calibration``.
 """
 
 from __future__ import annotations
@@ -31,6 +33,8 @@ from .wavespeed import local_wave_speed
 __all__ = ["energy_study", "add_parser"]
 
 DEFAULT_CALIBRATION = {"m0": 410.0, "kernel_dissipation": 0.83}
+"""The fixed (m0 [kg], ε) of `bsrflow energy` without --calibration; not re-fitted (`bsrflow
+compare` calibrates its own values, README "The tapped column")."""
 
 
 def _run(setup, scheme):
@@ -54,6 +58,10 @@ def _interaction(setup, grid, u, rho):
 
 def energy_study(calibration=None, figures=None, log=print) -> dict:
     cal = calibration or DEFAULT_CALIBRATION
+    if log:
+        log(f"  m0 = {cal['m0']:g} kg, eps = {cal['kernel_dissipation']:g} "
+            + ("(from the calibration given)" if calibration else "(the defaults; --calibration COMPARE_JSON to use a "
+               "`bsrflow compare` calibration)"))
     setup = ColumnSetup(a_over_d=1.0, t_end=1.4, save_every=0.0025, m0=cal["m0"],
                         kernel_dissipation=cal["kernel_dissipation"])
     out = {"setup": setup.to_dict(), "runs": {}}
@@ -62,14 +70,20 @@ def energy_study(calibration=None, figures=None, log=print) -> dict:
         grid, res, exc = _run(setup, Scheme.preset("seed", filter=filt))
         ke = res.kinetic_energy(grid.dx)
         runs[label] = (grid, res)
+        neg = negative_density_snapshots(setup, res)
         info = {"t": res.t.tolist(), "kinetic_normed": (ke / ke.max()).tolist(), "kinetic_max_J": float(ke.max()),
-                "completed": exc is None}
+                "completed": exc is None,
+                "min_density_over_line": float(res.rho.min() / (setup.particle_mass / setup.diameter)),
+                "t_first_negative_density_s": float(res.t[np.argmax(neg)]) if neg.any() else None}
         if exc is not None:
             info["stopped_at_s"] = exc.time
             info["message"] = str(exc)
         out["runs"][label] = info
         if log:
-            log(f"  {label}: " + ("completed" if exc is None else f"stopped at t = {exc.time:.4f} s: {exc}"))
+            log(f"  {label}: " + ("completed" if exc is None else f"stopped at t = {exc.time:.4f} s: {exc}")
+                + ("" if info["t_first_negative_density_s"] is None else
+                   f"; negative densities from t = {info['t_first_negative_density_s']:.4g} s on "
+                   f"(min {info['min_density_over_line']:.3g} m/d)"))
     # local wave speed along the top and middle tracers of the filtered run
     grid, res = runs["moving_average"]
     line = setup.particle_mass / setup.diameter
@@ -104,24 +118,59 @@ def energy_study(calibration=None, figures=None, log=print) -> dict:
     return out
 
 
-def _figures(out, runs, setup, outdir):
+NEGATIVE_DENSITY = 1e-9
+"""A snapshot has negative densities when min ρ < -NEGATIVE_DENSITY m/d (far above round-off,
+about 1e-15 m/d): then Σ ½ ρ u² Δx is no longer an energy (it can be negative)."""
+
+
+def negative_density_snapshots(setup, res) -> np.ndarray:
+    """(nt,) bool: the saved snapshots with min ρ < -NEGATIVE_DENSITY m/d."""
+    line = setup.particle_mass / setup.diameter
+    return res.rho.min(axis=1) < -NEGATIVE_DENSITY * line
+
+
+def kinetic_energy_figure(out, runs, setup):
+    """The kinetic-energy figure (seed Figures 5.5/5.6), returned open: Σ ½ ρ u² Δx [J] of the
+    column (floor frame) of each run, normed by its own maximum.  Snapshots with negative
+    densities (:func:`negative_density_snapshots`) are shaded and said so in the legend and
+    the title: there the normed 'energy' can go below zero, which a kinetic energy cannot."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    os.makedirs(outdir, exist_ok=True)
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5), sharey=True)
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.8), sharey=True)
     for ax, (label, title) in zip(axes, (("moving_average", "with the moving average (Fig. 5.5)"),
                                          ("no_moving_average", "without the moving average (Fig. 5.6)"))):
         r = out["runs"][label]
-        ax.plot(r["t"], r["kinetic_normed"])
+        t = np.asarray(r["t"])
+        ax.plot(t, r["kinetic_normed"], color="C0", label=f"Σ ½ρu²Δx / {r['kinetic_max_J']:.3g} J")
+        neg = negative_density_snapshots(setup, runs[label][1])
+        if neg.any():
+            first = float(t[np.argmax(neg)])
+            dt = np.diff(t).min() if t.size > 1 else 0.0
+            for k in np.flatnonzero(neg):
+                ax.axvspan(t[k] - 0.5 * dt, t[k] + 0.5 * dt, color="C3", alpha=0.15, lw=0,
+                           label="ρ < 0 somewhere: not an energy" if k == np.argmax(neg) else None)
+            title += f"\nρ < 0 from t = {first:.3f} s (min {r['min_density_over_line']:.2g} m/d)"
+        k_low = int(np.argmin(r["kinetic_normed"]))
+        if r["kinetic_normed"][k_low] < 0:
+            ax.annotate(f"{r['kinetic_normed'][k_low]:.3g} at t = {t[k_low]:.3f} s:\nbelow 0 because ρ < 0",
+                        xy=(t[k_low], r["kinetic_normed"][k_low]), xytext=(0.45, 0.35), textcoords="axes fraction",
+                        arrowprops=dict(arrowstyle="->", color="C3"), color="C3")
         if not r["completed"]:
             ax.axvline(r["stopped_at_s"], color="C3", ls="--", label=f"stopped at {r['stopped_at_s']:.3f} s")
-            ax.legend()
+        ax.legend(loc="lower left")
         ax.set_xlabel("time t [s]")
         ax.set_title(title)
         ax.grid(alpha=0.3)
-    axes[0].set_ylabel("kinetic energy / its maximum")
+    axes[0].set_ylabel("kinetic energy of the column / its maximum [1]")
     fig.tight_layout()
+    return fig
+
+
+def _figures(out, runs, setup, outdir):
+    import matplotlib.pyplot as plt
+    os.makedirs(outdir, exist_ok=True)
+    fig = kinetic_energy_figure(out, runs, setup)
     fig.savefig(os.path.join(outdir, "kinetic_energy.png"), dpi=110)
     plt.close(fig)
     grid, res = runs["moving_average"]

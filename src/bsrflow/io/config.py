@@ -54,28 +54,12 @@ class ConfigError(ValueError):
         super().__init__(f"{field}: {one_line}")
 
 
-# -- stability limits ------------------------------------------------------------------------
-CFL_LIMITS: dict[tuple[str, bool], float] = {
-    ("euler", True): 0.7071,
-    ("heun", True): 1.5289,
-    ("kutta3", True): 2.3388,
-    ("kutta3", False): 1.7321,
-    ("rk4", True): 3.1010,
-    ("rk4", False): 2.8284,
-    ("euler", False): 0.0,
-    ("heun", False): 0.0,
-}
-"""Largest stable Courant number ν = max(|u|+c) Δt/Δx of the scheme as implemented (central
-differences in every Runge-Kutta stage; ``bsrflow stability``, README "Stability"), keyed by
-(stepper, moving average after every step).  0: unstable at every ν.  ``bs32`` has the stability
-polynomial of every 3-stage 3rd-order method, so its limits are those of ``kutta3``;
-``rk4_0.4_0.25`` that of every 4-stage 4th-order method, so its limits are those of ``rk4``."""
+# -- stability limits and the snapshot cap: in bsrflow.numerics.limits (also used by the API) --
+from ..numerics.limits import CFL_LIMITS, MAX_SNAPSHOTS as _MAX_SNAPSHOTS, cfl_limit as _cfl_limit  # noqa: E402
 
-_STEPPER_ALIASES = {"rk3": "kutta3", "bs32": "kutta3", "rk4_0.4_0.25": "rk4"}   # for the stability limit only
 _STEPPERS = ("euler", "heun", "kutta3", "rk3", "rk4", "bs32", "rk4_0.4_0.25")
 _EMBEDDED = ("heun", "kutta3", "rk3", "bs32")
 _SCHEMES = ("seed", "accurate")
-_MAX_SNAPSHOTS = 1_000_000
 _MAX_CHECKPOINTS = 100_000
 _MAX_CELLS = 2_000_000
 _MAX_HEIGHT = 1e4     # [m], the largest domain
@@ -327,10 +311,6 @@ def _range_error(f: _Field, v, hi=None, why: str = "") -> ConfigError:
     rng = f.range_text(hi)
     return ConfigError(f.name, f"{_toml_value(v)} is outside the valid range {rng}"
                        + (f" ({why})" if why else ""), v, rng)
-
-
-def _cfl_limit(stepper: str, filt: bool) -> float:
-    return CFL_LIMITS[(_STEPPER_ALIASES.get(stepper, stepper), filt)]
 
 
 # -- sections and the config ------------------------------------------------------------------

@@ -40,7 +40,9 @@ si``) unless ``length_scale`` [m per file length unit] is given.  ``lj`` units n
 
 Atoms are matched between snapshots by their ``id`` and returned sorted by id; every snapshot
 must hold the same set of ids (a clear ``ValueError`` naming the file and line says which
-appeared or disappeared).  Compressed files (``*.gz``) are read transparently.
+appeared or disappeared).  Gzip-compressed files are read transparently (recognised by their
+content; a file named ``*.gz`` must be gzip).  Coordinates must be finite numbers and a dump
+must hold at least one atom.
 """
 
 from __future__ import annotations
@@ -49,11 +51,12 @@ import gzip
 import math
 import os
 import re
+import zlib
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-__all__ = ["DumpTrajectories", "read_dump", "write_dump", "LENGTH_UNITS", "TIME_UNITS"]
+__all__ = ["DumpTrajectories", "read_dump", "write_dump", "time_mismatch", "LENGTH_UNITS", "TIME_UNITS"]
 
 LENGTH_UNITS = {"si": 1.0, "cgs": 1e-2, "metal": 1e-10, "real": 1e-10, "micro": 1e-6, "nano": 1e-9,
                 "electron": 5.29177210903e-11}
@@ -84,8 +87,8 @@ class DumpTrajectories:
     ----------
     path : the file read.
     timestep : (nt,) int64 LAMMPS step numbers of the snapshots.
-    t : (nt,) times [s]: ``timestep * timestep_size`` when a step size was given, else the
-        ``ITEM: TIME`` values (converted to s) when the file has them, else None.
+    t : (nt,) times [s]: the ``ITEM: TIME`` values (converted to s) when the file has them,
+        else ``timestep * timestep_size`` when a step size was given, else None.
     ids : (n_atoms,) int64 atom ids, increasing.
     positions : (nt, n_atoms, 3) centres [m] (unwrapped where the file allows, see the module
         docstring); NaN for an axis the file has no column for.
@@ -283,8 +286,9 @@ def _atom_block(lines, n_atoms, columns, header_line):
     return np.array(tokens, dtype=str).reshape(n_atoms, len(columns)), first
 
 
-def _column_values(block, j, name, lines, first, integer=False):
-    """Column j as float (or int64) array; ValueError naming the first bad line."""
+def _column_values(block, j, name, lines, first, integer=False, finite=False):
+    """Column j as float (or int64) array; ValueError naming the first bad line (not a number,
+    not an integer with ``integer``, NaN or infinite with ``finite``)."""
     try:
         values = block[:, j].astype(np.float64)         # a no-op copy on the fast path
     except ValueError:
@@ -299,6 +303,10 @@ def _column_values(block, j, name, lines, first, integer=False):
             k = int(np.argmax(~np.isfinite(values) | (values != np.round(values))))
             raise lines.error(f"column {name!r} holds {str(block[k, j])!r}, not an integer", first + k)
         return values.astype(np.int64)
+    if finite and not np.all(np.isfinite(values)):
+        k = int(np.argmax(~np.isfinite(values)))
+        raise lines.error(f"column {name!r} holds {str(block[k, j])!r}: a coordinate must be a finite number",
+                          first + k)
     return values
 
 
@@ -351,9 +359,23 @@ def _positions(cols, origin, cell, n_atoms, lines, header_line):
     return origin + (v + images) @ cell
 
 
+_GZIP_MAGIC = b"\x1f\x8b"
+
+
 def _open_text(path):
-    if str(path).endswith(".gz"):
+    """A text stream of the file: gzip-compressed files (recognised by their first two bytes,
+    whatever their name) are decompressed; a file named ``.gz`` that is not gzip raises
+    ValueError, as does any file that cannot be read (a directory, no permission)."""
+    try:
+        with open(path, "rb") as fh:
+            magic = fh.read(2)
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+    if magic == _GZIP_MAGIC:
         return gzip.open(path, "rt", encoding="utf-8", errors="replace")
+    if str(path).endswith(".gz"):
+        raise ValueError(f"{path}: the name ends in .gz but the file is not gzip-compressed "
+                         f"(it starts with {magic!r}, not {_GZIP_MAGIC!r}); rename it without .gz or compress it")
     return open(path, "r", encoding="utf-8", errors="replace")
 
 
@@ -365,8 +387,12 @@ def read_dump(path, timestep_size: float | None = None, axis="z", *, length_scal
     Parameters
     ----------
     path : the dump file (``.gz`` read transparently).
-    timestep_size : the run's time step Δt [s]; then ``t = timestep * Δt``.  Without it ``t``
-        comes from ``ITEM: TIME`` blocks if the file has them, else it is None.
+    timestep_size : the run's time step Δt [s]; then ``t = timestep * Δt`` for a file without
+        ``ITEM: TIME`` blocks.  A file with them (in a units style with a time unit) keeps its
+        own times, and a Δt that contradicts them (``timestep * Δt`` off by more than 1e-6 of
+        the largest time, see :func:`time_mismatch`) raises ValueError saying by how much.
+        Without Δt, ``t`` comes from the ``ITEM: TIME`` blocks if the file has them (and its
+        units style has a time unit in seconds, i.e. not ``lj``), else it is None.
     axis : the vertical axis ('x', 'y' or 'z'), the default of :meth:`DumpTrajectories.heights`;
         the file must have a coordinate column for it.
     length_scale : metres per file length unit; default from ``ITEM: UNITS`` if present, else 1
@@ -380,9 +406,12 @@ def read_dump(path, timestep_size: float | None = None, axis="z", *, length_scal
 
     Raises
     ------
-    FileNotFoundError if the file does not exist; ValueError naming the file and line for a
-    malformed file, a snapshot whose atoms differ from the first snapshot's, a missing ``id`` or
-    coordinate column, or time steps that do not increase.
+    FileNotFoundError if the file does not exist; ValueError naming the file (and the line
+    where there is one) for a file that cannot be read (a directory, no permission, a ``.gz``
+    name on a file that is not gzip, damaged or truncated gzip data), a malformed file, a
+    coordinate that is NaN or infinite, a dump without atoms, a snapshot whose atoms differ from
+    the first snapshot's, a missing ``id`` or coordinate column, time steps that do not
+    increase, or a ``timestep_size`` contradicting the file's ``ITEM: TIME``.
     """
     path = os.fspath(path)
     k_axis = _axis_index(axis)
@@ -393,9 +422,27 @@ def read_dump(path, timestep_size: float | None = None, axis="z", *, length_scal
     if not os.path.exists(path):
         raise FileNotFoundError(f"{path}: no such file")
 
+    try:
+        result = _read_snapshots(path, k_axis, drop_incomplete)
+    except (EOFError, zlib.error, gzip.BadGzipFile) as exc:       # a damaged or truncated gzip stream
+        raise ValueError(f"{path}: damaged or truncated gzip data ({exc})") from None
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+    steps, times, positions, origins, cells, extra, ids0, types0, boundary, units, first_line = result
+    if not steps:
+        raise ValueError(f"{path}: no snapshot found (not a LAMMPS text dump?)")
+    if ids0.size == 0:
+        raise ValueError(f"{path}, line {first_line}: NUMBER OF ATOMS is 0: the dump holds no atoms")
+    return _assemble(path, k_axis, timestep_size, length_scale, steps, times, positions, origins, cells,
+                     extra, ids0, types0, boundary, units)
+
+
+def _read_snapshots(path, k_axis, drop_incomplete):
+    """The per-snapshot lists of :func:`read_dump` (no unit conversion)."""
     steps, times, positions, origins, cells, extra = [], [], [], [], [], {}
     ids0 = types0 = None
     boundary, units = "", None
+    first_line = None
     with _open_text(path) as fh:
         lines = _Lines(fh, path)
         while True:
@@ -418,6 +465,7 @@ def read_dump(path, timestep_size: float | None = None, axis="z", *, length_scal
                 raise
             if not steps:
                 boundary = snap.get("boundary", "")
+                first_line = snap["n_line"]
             cols = {}
             if "id" not in columns:
                 raise lines.error("the ATOMS header has no 'id' column: atoms cannot be matched between "
@@ -428,7 +476,7 @@ def read_dump(path, timestep_size: float | None = None, axis="z", *, length_scal
                 if name in ("id", "type", "ix", "iy", "iz"):
                     cols[name] = _column_values(block, j, name, lines, first, integer=True)
                 elif name in _POSITION_COLUMNS:
-                    cols[name] = _column_values(block, j, name, lines, first)
+                    cols[name] = _column_values(block, j, name, lines, first, finite=True)
                 else:
                     try:
                         cols[name] = block[:, j].astype(np.float64)
@@ -476,9 +524,11 @@ def read_dump(path, timestep_size: float | None = None, axis="z", *, length_scal
                 if len(series) != len(steps) - 1:       # column absent from an earlier snapshot
                     series.extend([np.full(ids.size, np.nan)] * (len(steps) - 1 - len(series)))
                 series.append(v[order])
-    if not steps:
-        raise ValueError(f"{path}: no snapshot found (not a LAMMPS text dump?)")
+    return steps, times, positions, origins, cells, extra, ids0, types0, boundary, units, first_line
 
+
+def _assemble(path, k_axis, timestep_size, length_scale, steps, times, positions, origins, cells, extra,
+              ids0, types0, boundary, units) -> DumpTrajectories:
     if length_scale is None:
         if units is None:
             length_scale = 1.0
@@ -493,19 +543,44 @@ def read_dump(path, timestep_size: float | None = None, axis="z", *, length_scal
         series = series + [np.full(ids0.size, np.nan)] * (nt - len(series))
         fields[name] = np.array(series)
     timestep = np.array(steps, dtype=np.int64)
-    if timestep_size is not None:
+    has_times = all(v is not None for v in times)
+    t_file = None
+    if has_times and (units is None or units in TIME_UNITS):
+        t_file = np.array(times, dtype=float) * TIME_UNITS.get(units or "si", 1.0)
+    if t_file is not None:
+        t = t_file
+        if timestep_size is not None:
+            bad = time_mismatch(timestep, t_file, timestep_size)
+            if bad:
+                raise ValueError(f"{path}: timestep_size = {timestep_size!r} s contradicts the file's ITEM: TIME: "
+                                 f"{bad}; leave timestep_size out (the file's times are used)")
+    elif timestep_size is not None:
         t = timestep * float(timestep_size)
-    elif all(v is not None for v in times):
-        if units is not None and units not in TIME_UNITS:
-            raise ValueError(f"{path}: units style {units!r} has no time unit in seconds; pass timestep_size")
-        t = np.array(times, dtype=float) * TIME_UNITS.get(units or "si", 1.0)
     else:
-        t = None
+        t = None           # no times, or ITEM: TIME in a style without a time unit in seconds (lj)
     return DumpTrajectories(path=path, timestep=timestep, t=t, ids=ids0,
                             positions=np.array(positions) * length_scale, types=types0,
                             origin=np.array(origins) * length_scale, cell=np.array(cells) * length_scale,
                             boundary=boundary, units=units, length_scale=float(length_scale), fields=fields,
                             axis="xyz"[k_axis])
+
+
+def time_mismatch(timestep, t_file, timestep_size, rtol=1e-6) -> str:
+    """'' if ``timestep * timestep_size`` reproduces the times ``t_file`` [s] of the file's
+    ITEM: TIME blocks to ``rtol`` of the largest |time| (and 1e-6 of one step), else a phrase
+    saying by how much they differ (the largest difference and where)."""
+    timestep = np.asarray(timestep, dtype=np.int64)
+    t_file = np.asarray(t_file, dtype=float)
+    t_dt = timestep * float(timestep_size)
+    diff = np.abs(t_dt - t_file)
+    tol = rtol * max(float(np.max(np.abs(t_file))), float(np.max(np.abs(t_dt)))) + 1e-6 * float(timestep_size)
+    k = int(np.argmax(diff))
+    if diff[k] <= tol:
+        return ""
+    span = float(t_file[-1] - t_file[0])
+    rel = f" ({float(t_dt[-1] - t_dt[0]) / span:.4g}x the file's time span)" if span > 0 else ""
+    return (f"timestep x dt differs from the file's times by up to {diff[k]:.4g} s (timestep {int(timestep[k])}: "
+            f"{t_dt[k]:.6g} s against {t_file[k]:.6g} s){rel}")
 
 
 def _few(values, n=5):
@@ -545,6 +620,7 @@ def _read_header(lines, snap, start_line):
             if n < 0:
                 raise lines.error(f"negative number of atoms {n}")
             snap["n"] = n
+            snap["n_line"] = lines.number
         elif upper.startswith("BOX BOUNDS"):
             snap["origin"], snap["cell"], snap["boundary"] = _parse_box(lines, "ITEM: " + item)
         elif upper.startswith("ATOMS"):

@@ -16,7 +16,7 @@ floor (time)              m                   floor position (lab frame)
 top (time)                m                   height of the top tracer (lab frame)
 mass_centre (time)        m                   height of the mass centre (lab frame)
 mass (time)               kg                  total mass
-kinetic_energy (time)     J                   kinetic energy sum(rho u^2/2 dx) (floor frame)
+kinetic_energy (time)     J                   kinetic energy of the column (floor frame), sum(rho u^2/2 dx)
 ========================  ==================  ============================================
 
 ``time`` is unlimited.  Global attributes: ``bsrflow_version``, ``config`` (the full TOML text),
@@ -76,7 +76,7 @@ SCHEMA = {
     "top": (("time",), "m", "height of the top tracer (lab frame)"),
     "mass_centre": (("time",), "m", "height of the mass centre (lab frame)"),
     "mass": (("time",), "kg", "total mass"),
-    "kinetic_energy": (("time",), "J", "kinetic energy sum(rho u^2/2 dx) (floor frame)"),
+    "kinetic_energy": (("time",), "J", "kinetic energy of the column (floor frame)"),
 }
 """Variables of the output file: name -> (dimensions, units, long_name)."""
 

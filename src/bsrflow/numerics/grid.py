@@ -53,10 +53,17 @@ class Grid1D:
     bc_upper: str = "periodic"
 
     def __post_init__(self):
+        for name in ("lower", "upper"):
+            v = getattr(self, name)
+            if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)):
+                raise ValueError(f"{name} = {v!r} must be a number [m], not {type(v).__name__}")
+        n = self.n_cells
+        if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, float, np.integer, np.floating)):
+            raise ValueError(f"n_cells = {n!r} is outside the valid range: integers >= 3 (got {type(n).__name__})")
         if not (np.isfinite(self.lower) and np.isfinite(self.upper) and self.upper > self.lower):
             raise ValueError(f"grid bounds lower = {self.lower!r}, upper = {self.upper!r}: "
                              "need finite values with upper > lower")
-        if int(self.n_cells) != self.n_cells or self.n_cells < 3:
+        if not np.isfinite(self.n_cells) or int(self.n_cells) != self.n_cells or self.n_cells < 3:
             raise ValueError(f"n_cells = {self.n_cells!r} is outside the valid range: integers >= 3")
         for name, v in (("bc_lower", self.bc_lower), ("bc_upper", self.bc_upper)):
             if v not in BOUNDARY_CODES:

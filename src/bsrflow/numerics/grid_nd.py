@@ -107,14 +107,18 @@ class GridND:
     bc_upper: str = "vacuum"
 
     def __post_init__(self):
-        shape = tuple(int(s) if int(s) == s else s for s in np.atleast_1d(self.shape).tolist())
+        try:
+            shape = tuple(int(s) if int(s) == s else s for s in np.atleast_1d(self.shape).tolist())
+        except (TypeError, ValueError, OverflowError):
+            raise ValueError(f"shape = {self.shape!r} is outside the valid range: integers >= 3 per axis") from None
         if len(shape) not in (2, 3):
             raise ValueError(f"shape = {self.shape!r}: need 2 (x, z) or 3 (x, y, z) cell counts")
         for s in shape:
             if not isinstance(s, int) or s < 3:
                 raise ValueError(f"shape = {self.shape!r} is outside the valid range: integers >= 3 per axis")
         object.__setattr__(self, "shape", shape)
-        if not (np.isfinite(self.dx) and self.dx > 0):
+        if (isinstance(self.dx, (bool, np.bool_)) or not isinstance(self.dx, (int, float, np.integer, np.floating))
+                or not (np.isfinite(self.dx) and self.dx > 0)):
             raise ValueError(f"dx = {self.dx!r} is outside the valid range (0, inf) m")
         object.__setattr__(self, "dx", float(self.dx))
         lower = (0.0,) * len(shape) if self.lower is None else tuple(float(v) for v in self.lower)

@@ -19,11 +19,12 @@ import numpy as np
 
 from ..physics.model import BSRModel, jit_user
 from .compiled import STATUS, direct_integral, make_core
+from .limits import MAX_SNAPSHOTS, cfl_limit
 from .grid import Grid1D
 from .quadrature import QUADRATURES, quadrature_weights
 from .steppers import get_stepper
 
-__all__ = ["Scheme", "Simulation", "SimulationResult", "SimulationError"]
+__all__ = ["Scheme", "Simulation", "SimulationResult", "SimulationError", "MAX_SNAPSHOTS"]
 
 
 @dataclass
@@ -51,6 +52,14 @@ class Scheme:
         ``sensor_dissipation`` = 0 the moving average is applied after every step (when
         ``filter`` is off) only at the faces next to cells whose sensor exceeds τ
         (``compiled.selective_average``).
+    check_cfl : refuse (ValueError) a scheme the measured stability limits
+        (:data:`bsrflow.numerics.limits.CFL_LIMITS`, the table the configuration checks
+        use) call unstable: a stepper unstable at every Courant number with or without the moving
+        average as chosen (Euler or Heun without it), or, when the step is set by ``cfl`` (no
+        fixed ``dt``), a ``cfl`` above the limit.  With a fixed ``dt`` the Courant number
+        depends on the solution and is not checked.  ``check_cfl=False`` is the explicit escape
+        for runs that are unstable on purpose (the stability tests run the solver at 1.02x the
+        limit to see the growth).
     sensor_dissipation : κ2 >= 0; with κ2 > 0 and τ > 0 the flagged faces get a second-difference
         dissipation +κ2 (max|u| + c)/Δx δ²q inside both right-hand sides instead of the
         post-step average: part of the semi-discrete system, so independent of Δt (the post-step
@@ -72,9 +81,18 @@ class Scheme:
     rtol: float | None = None
     atol: tuple = (1e-6, 1e-6)
     name: str = "custom"
+    check_cfl: bool = True
 
     def __post_init__(self):
         get_stepper(self.stepper)
+        if not isinstance(self.filter, (bool, np.bool_)):
+            raise ValueError(f"filter = {self.filter!r} must be True or False")
+        for name in ("cfl", "hyperdiffusion", "selective_filter", "sensor_dissipation"):
+            _require_number(name, getattr(self, name))
+        if self.dt is not None:
+            _require_number("dt", self.dt)
+        if self.rtol is not None:
+            _require_number("rtol", self.rtol)
         if self.quadrature not in QUADRATURES:
             raise ValueError(f"quadrature = {self.quadrature!r} is not one of {QUADRATURES}")
         if not (np.isfinite(self.cfl) and 0 < self.cfl <= 4):
@@ -101,6 +119,24 @@ class Scheme:
             raise ValueError(f"atol = {self.atol!r} must be two positive numbers (m/s, kg/m)")
         if self.tracer_integrator not in ("euler", "rk"):
             raise ValueError(f"tracer_integrator = {self.tracer_integrator!r} is not one of ('euler', 'rk')")
+        if self.check_cfl:
+            self._check_stability_limit()
+
+    def _check_stability_limit(self):
+        try:
+            limit = cfl_limit(self.stepper, self.filter)
+        except KeyError:
+            return                                      # a stepper without a measured limit
+        with_avg = "with" if self.filter else "without"
+        if limit == 0.0:
+            raise ValueError(f"stepper = {self.stepper!r} {with_avg} the moving average (filter = {bool(self.filter)}) "
+                             "is unstable at every CFL number (measured limit 0, bsrflow stability); use "
+                             "filter=True or one of 'kutta3', 'rk4', 'bs32', 'rk4_0.4_0.25' (check_cfl=False to "
+                             "run it anyway)")
+        if self.dt is None and self.cfl > limit:
+            raise ValueError(f"cfl = {self.cfl!r} is above the stability limit {limit:g} of {self.stepper} "
+                             f"{with_avg} the moving average; valid range (0, {limit:g}] (check_cfl=False to run "
+                             "above it on purpose)")
 
     @classmethod
     def preset(cls, preset_name: str, **overrides) -> "Scheme":
@@ -163,20 +199,67 @@ class SimulationResult:
         return 0.5 * (self.rho * self.u ** 2).sum(axis=1) * dx
 
 
+def _require_number(name, value):
+    """ValueError unless ``value`` is a real number (not a string, None or bool)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{name} = {value!r} must be a number, not {type(value).__name__}")
+
+
 def save_schedule(t_start, t_end, save_every=None, save_times=None) -> np.ndarray:
     """Sorted output times [s] in [t_start, t_end]: ``save_times`` if given, else every
-    ``save_every`` from t_start plus t_end, else just the two ends."""
+    ``save_every`` from t_start plus t_end, else just the two ends.  At most
+    :data:`MAX_SNAPSHOTS` times (ValueError naming ``save_every`` and its valid range, or
+    ``save_times``)."""
     if save_times is None:
         if save_every is None:
             save_times = np.array([t_start, t_end])
         else:
-            if not (save_every > 0):
-                raise ValueError(f"save_every = {save_every!r} is outside the valid range (0, inf) s")
+            _require_number("save_every", save_every)
+            span = t_end - t_start
+            if not (np.isfinite(save_every) and save_every > 0):
+                raise ValueError(f"save_every = {save_every!r} is outside the valid range "
+                                 f"[{span / MAX_SNAPSHOTS:.3g}, inf) s (at most {MAX_SNAPSHOTS} snapshots)")
+            if span / save_every > MAX_SNAPSHOTS:
+                raise ValueError(f"save_every = {save_every!r} s gives {span / save_every:.3g} snapshots from "
+                                 f"t = {t_start:g} to {t_end:g} s; valid range [{span / MAX_SNAPSHOTS:.3g}, inf) s "
+                                 f"(at most {MAX_SNAPSHOTS} snapshots)")
             n = int(np.floor((t_end - t_start) / save_every + 1e-9))
             save_times = t_start + save_every * np.arange(n + 1)
             if save_times[-1] < t_end - 1e-12 * max(1.0, abs(t_end)):
                 save_times = np.append(save_times, t_end)
-    return np.unique(np.clip(np.asarray(save_times, float), t_start, t_end))
+    try:
+        save_times = np.asarray(save_times, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ValueError(f"save_times = {save_times!r} must be a list of numbers [s]") from None
+    if not np.all(np.isfinite(save_times)):
+        raise ValueError("save_times contains non-finite values")
+    if save_times.size > MAX_SNAPSHOTS + 1:            # as many as the smallest save_every gives
+        raise ValueError(f"save_times has {save_times.size} times; at most {MAX_SNAPSHOTS + 1} "
+                         f"({MAX_SNAPSHOTS} intervals, the cap of save_every)")
+    return np.unique(np.clip(save_times, t_start, t_end))
+
+
+def check_tracers(tracers, grid, inside=True) -> np.ndarray:
+    """Tracer positions [m] as a float array (a copy); ValueError for non-numbers, NaN or
+    infinite values, or (``inside``) positions outside the domain [lower, upper] of ``grid``
+    (floor frame)."""
+    if tracers is None:
+        return np.zeros(0)
+    try:
+        tr = np.array(tracers, dtype=float, copy=True).reshape(-1)
+    except (TypeError, ValueError):
+        raise ValueError(f"tracers = {tracers!r} must be a list of positions [m]") from None
+    bad = ~np.isfinite(tr)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise ValueError(f"tracers[{k}] = {float(tr[k])!r} is not a finite position; valid range "
+                         f"[{grid.lower:g}, {grid.upper:g}] m (the domain)")
+    out = (tr < grid.lower) | (tr > grid.upper)
+    if inside and out.any():
+        k = int(np.argmax(out))
+        raise ValueError(f"tracers[{k}] = {float(tr[k])!r} m is outside the valid range [{grid.lower:g}, {grid.upper:g}] m "
+                         "(the domain)")
+    return tr
 
 
 class SimulationError(RuntimeError):
@@ -338,22 +421,35 @@ class Simulation:
             event (every ``advance`` starts afresh).  Used for checkpoints.
         restart: the initial state is a state saved by an earlier run (a checkpoint): skip
             the check that rho0 >= 0 (schemes without the positivity fix leave round-off
-            level negative densities, e.g. -1e-15 kg/m).
+            level negative densities, e.g. -1e-15 kg/m) and that the tracers lie inside the
+            domain (a tracer moved to the floor may sit a round-off below it).
+        ValueError (before any step) for arrays of the wrong shape (no reshaping: u0 and rho0
+        must have shape (n_cells,)), non-finite values, t_end or save_every that are not
+        numbers, more than :data:`MAX_SNAPSHOTS` snapshots, and tracers that are not finite
+        or (without ``restart``) outside the domain.
         Raises :class:`SimulationError` (with ``.result``) if a monitor stops the run.
         """
         g = self.grid
-        u = np.array(u0, dtype=float, copy=True).reshape(-1)
-        rho = np.array(rho0, dtype=float, copy=True).reshape(-1)
-        for name, arr in (("u0", u), ("rho0", rho)):
+        arrays = []
+        for name, value in (("u0", u0), ("rho0", rho0)):
+            try:
+                arr = np.array(value, dtype=float, copy=True)
+            except (TypeError, ValueError):
+                raise ValueError(f"{name} must be an array of numbers of shape ({g.n_cells},)") from None
             if arr.shape != (g.n_cells,):
-                raise ValueError(f"{name} has shape {arr.shape}; expected ({g.n_cells},) to match the grid")
+                raise ValueError(f"{name} has shape {arr.shape}; expected ({g.n_cells},) to match the grid "
+                                 "(a 1-D array, one value per cell)")
             if not np.all(np.isfinite(arr)):
                 raise ValueError(f"{name} contains non-finite values")
+            arrays.append(arr)
+        u, rho = arrays
         if not restart and np.any(rho < 0):
             raise ValueError(f"rho0 has negative values (min {rho.min():.3g} kg/m); density must be >= 0")
-        if not (np.isfinite(t_end) and t_end > t_start):
+        _require_number("t_start", t_start)
+        _require_number("t_end", t_end)
+        if not (np.isfinite(t_start) and np.isfinite(t_end) and t_end > t_start):
             raise ValueError(f"t_end = {t_end!r} must be finite and greater than t_start = {t_start!r}")
-        tr = np.zeros(0) if tracers is None else np.array(tracers, dtype=float, copy=True).reshape(-1)
+        tr = check_tracers(tracers, g, inside=not restart)
         save_times = save_schedule(t_start, t_end, save_every, save_times)
         jumps = self.model.motion.jumps_between(t_start, t_end)
         extra = {float(te) for te in extra_event_times if t_start < te < t_end}

@@ -50,7 +50,7 @@ from .compiled_nd import make_core_nd
 from .grid import Grid1D
 from .grid_nd import GridND, ball_quadrature
 from .quadrature import quadrature_weights
-from .solver import Scheme, Simulation, SimulationError, save_schedule
+from .solver import Scheme, Simulation, SimulationError, _require_number, save_schedule
 from .steppers import get_stepper
 
 __all__ = ["SimulationND", "ResultND", "ReferenceND", "induced_kernel_1d", "embedding_error",
@@ -301,7 +301,9 @@ class SimulationND:
         ui, ri = ui.copy(), ri.copy()
         if np.any(ri < 0):
             raise ValueError(f"rho0 has negative values (min {ri.min():.3g} kg/m^{g.dim}); density must be >= 0")
-        if not (np.isfinite(t_end) and t_end > t_start):
+        _require_number("t_start", t_start)       # the checks of the 1-D Simulation.run
+        _require_number("t_end", t_end)
+        if not (np.isfinite(t_start) and np.isfinite(t_end) and t_end > t_start):
             raise ValueError(f"t_end = {t_end!r} must be finite and greater than t_start = {t_start!r}")
         save_times = save_schedule(t_start, t_end, save_every, save_times)
         motion = self.model.motion

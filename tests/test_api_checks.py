@@ -1,0 +1,173 @@
+"""Python API input checks (issue #20, "Python API"): the checks the configuration and the CLI
+make, made by Scheme, Grid1D and Simulation.run too, as clear ValueErrors before any step."""
+
+import math
+
+import numpy as np
+import pytest
+
+from bsrflow.io.config import CFL_LIMITS, Config, ConfigError
+from bsrflow.numerics import limits
+from bsrflow.numerics.grid import Grid1D
+from bsrflow.numerics.grid_nd import GridND
+from bsrflow.numerics.solver import MAX_SNAPSHOTS, Scheme, Simulation, save_schedule
+from bsrflow.physics.model import BSRModel
+
+GRID = Grid1D(0.0, 1.0, 400, "periodic", "periodic")
+
+
+@pytest.fixture(scope="module")
+def sim():
+    return Simulation(BSRModel(), GRID, Scheme.preset("seed"))
+
+
+def _fields():
+    return np.zeros(GRID.n_cells), np.ones(GRID.n_cells)
+
+
+# -- snapshots ---------------------------------------------------------------------------------
+def test_snapshot_cap_is_the_configs(sim):
+    assert MAX_SNAPSHOTS == limits.MAX_SNAPSHOTS == 1_000_000
+    u, r = _fields()
+    with pytest.raises(ValueError, match=r"^save_every = 1e-09 s gives 1e\+09 snapshots .*valid range \[1e-06, inf\) s "
+                                         r"\(at most 1000000 snapshots\)"):
+        sim.run(u, r, 1.0, save_every=1e-9)
+    # the configuration refuses the same save_every (the CLI's cap)
+    with pytest.raises(ConfigError, match="at most 1000000 snapshots"):
+        Config.from_dict({"run": {"t_end": 1.0, "save_every": 1e-9}})
+    for bad in (0.0, -1.0, math.nan, math.inf * -1):
+        with pytest.raises(ValueError, match="^save_every = .* valid range"):
+            sim.run(u, r, 1.0, save_every=bad)
+    with pytest.raises(ValueError, match="^save_every = '0.1' must be a number"):
+        sim.run(u, r, 1.0, save_every="0.1")
+    assert save_schedule(0.0, 1.0, 1e-6).size == MAX_SNAPSHOTS + 1     # the cap itself is allowed
+    with pytest.raises(ValueError, match="save_times has 1000002 times; at most 1000001"):
+        save_schedule(0.0, 1.0, save_times=np.linspace(0, 1, MAX_SNAPSHOTS + 2))
+    with pytest.raises(ValueError, match="save_times contains non-finite"):
+        save_schedule(0.0, 1.0, save_times=[0.1, math.nan])
+
+
+# -- tracers -----------------------------------------------------------------------------------
+@pytest.mark.parametrize("tracers, match", [
+    ([0.1, math.nan], r"^tracers\[1\] = nan is not a finite position; valid range \[0, 1\] m"),
+    ([math.inf], r"^tracers\[0\] = inf is not a finite"),
+    ([0.5, 1.5], r"^tracers\[1\] = 1.5 m is outside the valid range \[0, 1\] m"),
+    ([-0.01], r"^tracers\[0\] = -0.01 m is outside the valid range"),
+    (["a"], r"^tracers = \['a'\] must be a list of positions"),
+])
+def test_tracers_must_be_finite_and_inside(sim, tracers, match):
+    u, r = _fields()
+    with pytest.raises(ValueError, match=match):
+        sim.run(u, r, 1e-3, tracers=tracers)
+
+
+def test_tracers_at_the_ends_are_accepted(sim):
+    u, r = _fields()
+    res = sim.run(u, r, 1e-3, tracers=[0.0, 0.5, 1.0])
+    assert res.tracers.shape == (2, 3) and np.all(np.isfinite(res.tracers))
+
+
+# -- arrays, times -----------------------------------------------------------------------------
+def test_arrays_are_not_reshaped(sim):
+    with pytest.raises(ValueError, match=r"^u0 has shape \(20, 20\); expected \(400,\)"):
+        sim.run(np.zeros((20, 20)), np.ones(400), 1.0)
+    with pytest.raises(ValueError, match=r"^rho0 has shape \(400, 1\); expected \(400,\)"):
+        sim.run(np.zeros(400), np.ones((400, 1)), 1.0)
+    with pytest.raises(ValueError, match="^rho0 must be an array of numbers"):
+        sim.run(np.zeros(400), ["x"] * 400, 1.0)
+
+
+@pytest.mark.parametrize("kw, match", [
+    (dict(t_end="1"), r"^t_end = '1' must be a number, not str"),
+    (dict(t_end=None), r"^t_end = None must be a number"),
+    (dict(t_end=1.0, t_start="0"), r"^t_start = '0' must be a number"),
+    (dict(t_end=math.nan), r"^t_end = nan must be finite"),
+])
+def test_times_must_be_numbers(sim, kw, match):
+    u, r = _fields()
+    with pytest.raises(ValueError, match=match):
+        sim.run(u, r, **kw)
+
+
+@pytest.mark.parametrize("args, match", [
+    ((0, 1, None), r"^n_cells = None is outside the valid range: integers >= 3"),
+    ((0, 1, "400"), r"^n_cells = '400' is outside the valid range"),
+    ((0, 1, math.nan), r"^n_cells = nan is outside the valid range"),
+    ((None, 1, 400), r"^lower = None must be a number"),
+    ((0, "1", 400), r"^upper = '1' must be a number"),
+])
+def test_grid_arguments(args, match):
+    with pytest.raises(ValueError, match=match):
+        Grid1D(*args)
+
+
+def test_nd_driver_refuses_the_same(tmp_path):
+    from bsrflow.numerics.solver_nd import SimulationND
+    from bsrflow.physics.kernels_nd import BSRModelND, walton_braun_nd
+
+    with pytest.raises(ValueError, match="^shape = .* integers >= 3"):
+        GridND((None, 8), 0.1)
+    with pytest.raises(ValueError, match="^dx = '0.1' is outside"):
+        GridND((8, 8), "0.1")
+    grid = GridND((6, 8), 0.05, bc_horizontal="periodic", bc_lower="floor", bc_upper="vacuum")
+    model = BSRModelND(walton_braun_nd(1e3, 0.1, 0.1), gravity=9.81)
+    sim = SimulationND(model, grid, Scheme(stepper="kutta3", filter=True, dt=1e-4))
+    u0, r0 = np.zeros((2, 6, 8)), np.ones((6, 8))
+    with pytest.raises(ValueError, match=r"^t_end = '1' must be a number"):
+        sim.run(u0, r0, "1")
+    with pytest.raises(ValueError, match=r"^save_every = 1e-09 s gives"):
+        sim.run(u0, r0, 1.0, save_every=1e-9)
+    with pytest.raises(ValueError, match=r"u0 has shape \(2, 48\)"):
+        sim.run(u0.reshape(2, 48), r0, 1.0)
+    with pytest.raises(ValueError, match="unstable at every CFL number"):
+        SimulationND(model, grid, Scheme(stepper="euler", filter=False, dt=1e-4))
+
+
+# -- the stability limit -----------------------------------------------------------------------
+def test_scheme_refuses_cfl_above_the_measured_limit():
+    with pytest.raises(ValueError, match=r"^stepper = 'euler' without the moving average \(filter = False\) is "
+                                         "unstable at every CFL number"):
+        Scheme(stepper="euler", filter=False, cfl=0.5)
+    with pytest.raises(ValueError, match="unstable at every CFL number"):
+        Scheme(stepper="heun", filter=False, dt=1e-3)          # unstable whatever the step
+    for (stepper, filt), limit in CFL_LIMITS.items():
+        if limit == 0.0:
+            continue
+        Scheme(stepper=stepper, filter=filt, cfl=limit)        # at the limit: accepted
+        with pytest.raises(ValueError, match=rf"^cfl = {limit * 1.001!r} is above the stability limit {limit:g} "
+                                             rf"of {stepper} (with|without) the moving average; valid range "
+                                             rf"\(0, {limit:g}\]"):
+            Scheme(stepper=stepper, filter=filt, cfl=limit * 1.001)
+    # steppers sharing a stability polynomial share the limit, as in the configuration
+    with pytest.raises(ValueError, match="above the stability limit 2.8284"):
+        Scheme.preset("accurate", cfl=2.9)
+    with pytest.raises(ValueError, match="above the stability limit 1.7321"):
+        Scheme(stepper="bs32", filter=False, cfl=1.8)
+    # a fixed dt sets the step, not cfl: the Courant number is the solution's, not checked here
+    Scheme(stepper="kutta3", filter=False, cfl=4.0, dt=1e-3)
+
+
+def test_check_cfl_false_is_the_explicit_escape():
+    s = Scheme(stepper="euler", filter=False, cfl=0.5, check_cfl=False)
+    assert s.to_dict()["check_cfl"] is False
+    Scheme(stepper="kutta3", filter=True, cfl=3.0, check_cfl=False)
+
+
+def test_the_refused_scheme_really_blows_up():
+    """What the check prevents: Euler without the average at ν = 0.5 on a smooth advected
+    density gives ρ far outside its initial range within 400 steps (here with check_cfl=False)."""
+    x = GRID.x
+    sim = Simulation(BSRModel(), GRID, Scheme(stepper="euler", filter=False, cfl=0.5, check_cfl=False))
+    u = np.full(GRID.n_cells, 1.0)
+    rho = 1.0 + 0.1 * np.sin(2 * np.pi * x) + 1e-6 * np.cos(2 * np.pi * 150 * x)
+    sim.advance(u, rho, 0.0, 1e300, max_steps=4000)
+    assert not (0.8 < rho.min() and rho.max() < 1.2)
+
+
+def test_scheme_argument_types():
+    with pytest.raises(ValueError, match="^cfl = '0.5' must be a number"):
+        Scheme(cfl="0.5")
+    with pytest.raises(ValueError, match="^filter = 'yes' must be True or False"):
+        Scheme(filter="yes")
+    with pytest.raises(ValueError, match="^dt = '1e-3' must be a number"):
+        Scheme(dt="1e-3")
