@@ -30,6 +30,7 @@ import time
 
 import numpy as np
 
+from ..io.paths import DIR_RULE, FILE_RULE, check_output_dir, check_output_file
 from ..numerics.solver import SimulationError
 from ..physics.column import ColumnSetup, run_bsr_column
 
@@ -203,10 +204,11 @@ def add_parser(sub):
                            ("demo", "the main job: the tapped-column comparison with figures, on the defaults")):
         p = sub.add_parser(name, help=helptext, description=helptext)
         if name == "demo":
-            p.add_argument("--out", default="out", help="output directory (default: out)")
+            p.add_argument("--out", default="out", metavar="DIR",
+                           help=f"output directory for compare.json and figures/ (default: out; {DIR_RULE})")
         else:
-            p.add_argument("--json", metavar="PATH", help="write the results as JSON")
-            p.add_argument("--figures", metavar="DIR", help="write the figures to DIR")
+            p.add_argument("--json", metavar="PATH", help=f"write the results as JSON ({FILE_RULE})")
+            p.add_argument("--figures", metavar="DIR", help=f"write the figures to DIR ({DIR_RULE})")
         p.add_argument("--scheme", default="seed", help="scheme preset (default: seed)")
         p.add_argument("--diameter", type=float, default=None, help="sphere diameter d [m] (default 0.022)")
         p.add_argument("--ppd", type=int, default=None, help="grid points per diameter (default 10)")
@@ -221,17 +223,19 @@ def _main(args) -> int:
         kw["points_per_diameter"] = args.ppd
     base = ColumnSetup(**kw)
     if args.command == "demo":
-        json_path = os.path.join(args.out, "compare.json")
-        figures = os.path.join(args.out, "figures")
+        check_output_dir(args.out, "--out", create=True)
+        json_path = check_output_file(os.path.join(args.out, "compare.json"), "--out")
+        figures = check_output_dir(os.path.join(args.out, "figures"), "--out", create=True)
     else:
         json_path, figures = args.json, args.figures
-    if figures:
-        os.makedirs(figures, exist_ok=True)
+        if json_path:
+            check_output_file(json_path, "--json")
+        if figures:
+            check_output_dir(figures, "--figures", create=True)
     print(f"bsrflow {args.command}: tapped column, d = {base.diameter} m, scheme {args.scheme}")
     result = compare(base, scheme=args.scheme, figures=figures)
     print(format_table(result))
     if json_path:
-        os.makedirs(os.path.dirname(os.path.abspath(json_path)), exist_ok=True)
         with open(json_path, "w") as fh:
             json.dump(result, fh, indent=2)
         print(f"wrote {json_path}")

@@ -23,6 +23,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..io.paths import DIR_RULE, FILE_RULE, check_output_dir, check_output_file
 from ..numerics.solver import Scheme, Simulation, SimulationError
 from ..physics.column import ColumnSetup, column_run_from_result, initial_density
 from ..physics.model import BSRModel
@@ -144,13 +145,17 @@ def _figures(out, runs, setup, outdir):
 def add_parser(sub):
     p = sub.add_parser("energy", help="kinetic energy with/without the moving average; local wave speed",
                        description=__doc__.split("\n\n")[0])
-    p.add_argument("--json", metavar="PATH", help="write results as JSON")
-    p.add_argument("--figures", metavar="DIR", help="write figures to DIR")
+    p.add_argument("--json", metavar="PATH", help=f"write results as JSON ({FILE_RULE})")
+    p.add_argument("--figures", metavar="DIR", help=f"write figures to DIR ({DIR_RULE})")
     p.add_argument("--calibration", metavar="COMPARE_JSON", help="take m0 and eps from a `bsrflow compare` JSON")
     p.set_defaults(func=_main)
 
 
 def _main(args) -> int:
+    if args.json:
+        check_output_file(args.json, "--json")
+    if args.figures:
+        check_output_dir(args.figures, "--figures")
     cal = None
     if args.calibration:
         with open(args.calibration) as fh:
@@ -164,7 +169,6 @@ def _main(args) -> int:
               f"middle tracer: {np.nanmin(w['middle_tracer_m_s']):.3g}..{np.nanmax(w['middle_tracer_m_s']):.3g} m/s "
               f"(long-wave speed at the stacked density {w['long_wave_speed_at_stacked_density_m_s']:.3g} m/s)")
     if args.json:
-        os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
         with open(args.json, "w") as fh:
             json.dump(out, fh, indent=1)
         print(f"wrote {args.json}")

@@ -281,17 +281,18 @@ def format_table(cases) -> str:
 def add_parser(sub):
     p = sub.add_parser("verify", help="run the verification cases (exact solutions, refinement orders)",
                        description="Run the verification cases and print observed orders of convergence.")
-    p.add_argument("--json", metavar="PATH", help="write the results as JSON to PATH")
+    p.add_argument("--json", metavar="PATH", help="write the results as JSON to PATH (its folder must exist)")
     p.add_argument("--case", action="append", metavar="NAME", help="run only this case (repeatable)")
     p.set_defaults(func=_main)
 
 
 def _main(args) -> int:
+    from ..io.paths import check_output_file
+    if args.json:
+        check_output_file(args.json, "--json")
     flat = run_cases(args.case)
     print(format_table(flat))
     if args.json:
-        import os
-        os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
         with open(args.json, "w") as fh:
             json.dump({"cases": flat}, fh, indent=2, default=_json_default)
         print(f"wrote {args.json}")

@@ -29,6 +29,8 @@ import sys
 
 import numpy as np
 
+from ..io.paths import DIR_RULE, check_output_dir
+
 __all__ = ["plot_file", "add_parser", "load_output"]
 
 _NC_FILL = 9.0e36          # netCDF default fill values are 9.97e36 (float and double)
@@ -244,10 +246,13 @@ def add_parser(sub):
     helptext = "draw the standard figures (density map, tracers, top/mass centre, kinetic energy) of an output file"
     p = sub.add_parser("plot", help=helptext, description=helptext)
     p.add_argument("file", metavar="FILE.nc", help="netCDF output of a column run")
-    p.add_argument("--out", metavar="DIR", default=None, help="directory for the PNG files (default: the file's)")
+    p.add_argument("--out", metavar="DIR", default=None,
+                   help=f"directory for the PNG files (default: the file's; {DIR_RULE})")
     p.set_defaults(func=_main)
 
 
 def _main(args) -> int:
-    plot_file(args.file, args.out)
+    out = args.out if args.out is not None else os.path.dirname(os.path.abspath(args.file))
+    check_output_dir(out, "--out" if args.out is not None else "--out (default: the file's directory)")
+    plot_file(args.file, out)
     return 0

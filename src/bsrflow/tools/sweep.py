@@ -385,12 +385,19 @@ def add_parser(sub):
     p.add_argument("--scheduler", metavar="ADDRESS", default=None,
                    help="address of a running dask scheduler (default: start a LocalCluster)")
     p.add_argument("--workers", type=int, default=2, help="LocalCluster worker processes (default 2)")
-    p.add_argument("--out", default="sweep.nc", metavar="FILE.nc", help="netCDF output (default sweep.nc)")
-    p.add_argument("--figure", default=None, metavar="F.png", help="write the top-height figure here")
+    p.add_argument("--out", default="sweep.nc", metavar="FILE.nc",
+                   help="netCDF output (default sweep.nc; its folder must exist)")
+    p.add_argument("--figure", default=None, metavar="F.png",
+                   help="write the top-height figure here (its folder must exist)")
     p.set_defaults(func=_main)
 
 
 def _main(args) -> int:
+    from ..io.paths import check_output_file
+
+    check_output_file(args.out, "--out")
+    if args.figure:
+        check_output_file(args.figure, "--figure")
     params = parse_params(args.param)
     fixed = {}
     for item in args.set:
