@@ -214,7 +214,7 @@ def run_config(config: Config, out, *, resume: bool = False, progress=None, log=
         how = "by SIGTERM" if signame == "SIGTERM" else "by Ctrl-C (SIGINT)"
         times = writer.series("time")
         kept = (f"{out} keeps {writer.n} snapshot(s) up to t = {times[-1]:.6g} s" if writer.n else
-                f"no snapshot was written ({out} was {'kept as it was' if resume else 'not created'})")
+                f"no snapshot was written ({out} {'was kept as it was' if resume else 'was not written'})")
         writer.close(f"interrupted {how} after {writer.n} snapshots" +
                      (f", up to t = {times[-1]:.6g} s" if writer.n else ""))
         interval = config.checkpoint_interval()
