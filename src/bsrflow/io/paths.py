@@ -82,7 +82,7 @@ def check_output_file(path, option: str) -> str:
         raise OutputPathError(option, "empty path; give a file name")
     if os.path.isdir(path):
         raise OutputPathError(option, f"{path} is a directory; give a file name")
-    if os.path.lexists(path) and os.path.exists(path):
+    if os.path.exists(path):
         mode = os.stat(path).st_mode
         if not stat.S_ISREG(mode):
             raise OutputPathError(option, f"{path} exists and is not a regular file; give a file name")
