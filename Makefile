@@ -27,17 +27,22 @@ test-slow: $(STAMP)
 	$(BIN)/python -m pytest -q -m slow
 
 verify: $(STAMP)
+	mkdir -p $(OUT)
 	$(BIN)/bsrflow verify --json $(OUT)/verify.json
 
 stability: $(STAMP)
+	mkdir -p $(OUT)
 	$(BIN)/bsrflow stability --json $(OUT)/stability.json --figures $(OUT)/stability
 
+# output folders are not created by bsrflow (their parent must exist): mkdir -p $(OUT) first
 # all analysis figures and JSON of chapter 5 / Appendix A (stability, kinetic energy, wave speed)
 analysis: $(STAMP)
+	mkdir -p $(OUT)
 	$(BIN)/bsrflow stability --json $(OUT)/stability.json --figures $(OUT)/stability
 	$(BIN)/bsrflow energy --json $(OUT)/energy.json --figures $(OUT)/energy
 
 compare: $(STAMP)
+	mkdir -p $(OUT)
 	$(BIN)/bsrflow compare --json $(OUT)/compare.json --figures $(OUT)/compare
 
 bench: $(STAMP)

@@ -1,6 +1,8 @@
 """TOML configs: defaults and round trip, overrides, and validation of every field before a run
 (exit code 2 and one line on stderr naming the field)."""
 import math
+
+import numpy as np
 import subprocess
 import sys
 
@@ -60,7 +62,14 @@ def test_init_writes_the_defaults_and_load_round_trips(tmp_path, capsys):
     pkg = ColumnSetup(m0=406.0, kernel_dissipation=0.9)
     assert cfg.column_setup().to_dict() == pkg.to_dict()
     assert cfg.scheme().to_dict() == __import__("bsrflow").Scheme.preset("seed").to_dict()
-    assert cfg.run.checkpoint_every == 0.0 and cfg.numerics.cfl is None
+    # checkpoints on by default: every 0.1 s (20 snapshots), on snapshot times; 0 turns them off
+    assert cfg.run.checkpoint_every is None and cfg.numerics.cfl is None
+    assert cfg.checkpoint_interval() == pytest.approx(0.1)
+    assert np.array_equal(cfg.checkpoint_times(), cfg.save_times()[20:-1:20])
+    assert cfg.with_overrides({"checkpoint_every": 0.0}).checkpoint_times().size == 0
+    long = cfg.with_overrides({"t_end": 1000.0, "save_every": 0.03})        # at most 1000 by default
+    assert long.checkpoint_interval() == pytest.approx(1.02) and long.checkpoint_times().size == 980
+    assert cfg.with_overrides({"t_end": 0.05}).checkpoint_times().size == 0   # shorter than the interval
     # to_toml -> load gives the same values, also after overrides
     other = cfg.with_overrides({"a_over_d": 0.5, "f": 12, "numerics.cfl": 0.4, "stepper": "bs32",
                                 "rtol": 1e-4, "atol": [1e-3, 1e-2], "checkpoint_every": 0.1})

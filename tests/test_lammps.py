@@ -329,6 +329,7 @@ def test_compare_dump_command(tmp_path, dem_result, bsr_run, capsys):
     res = dem_result
     path = str(tmp_path / "cli.dump")
     dt = _dump_of(res, path, offset=0.1)
+    (tmp_path / "out").mkdir()            # the folder of an output must exist (bsrflow.io.paths)
     js = str(tmp_path / "out" / "c.json")
     figs = str(tmp_path / "out" / "fig")
     args = ["compare-dump", path, "--dt", repr(dt), "--floor-offset", "0.1", "--n-spheres", "3", "--ppd", "4",

@@ -324,3 +324,113 @@ def test_reader_drops_a_snapshot_cut_short(tmp_path, short):
         h[short][3] = np.nan
     data, _ = read_snapshots(p)
     assert np.array_equal(data["time"], np.arange(3) * 0.01)
+
+
+# -- interruptions: SIGTERM and SIGINT like Ctrl-C, checkpoints on by default ----------------------
+SLOW_RUN_ENV = SLOW_RUN.replace("time.sleep(0.25)", "time.sleep(float(__import__('os').environ['SLOW_SAVE']))")
+
+
+def _start_slow(args, sleep):
+    env = dict(os.environ, SLOW_SAVE=str(sleep))
+    return subprocess.Popen([sys.executable, "-c", SLOW_RUN_ENV] + args, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, text=True, env=env)
+
+
+def _wait_for(proc, out, n_min, timeout=180):
+    """Wait until ``out`` and its checkpoint exist and ``out`` holds at least n_min snapshots."""
+    deadline = time.time() + timeout
+    n = 0
+    while time.time() < deadline and proc.poll() is None:
+        if out.exists() and os.path.exists(str(out) + ".ckpt"):
+            n = read_snapshots(out)[0]["time"].size
+            if n >= n_min:
+                return n
+        time.sleep(0.05)
+    raise AssertionError(f"the run did not get to {n_min} snapshots (got {n}): {proc.poll()} "
+                         f"{proc.stderr.read() if proc.poll() is not None else ''}")
+
+
+def test_sigterm_is_handled_like_ctrl_c_and_says_what_was_kept(tmp_path, reference, capsys):
+    cfg_path, ref_out = reference
+    out = tmp_path / "term.nc"
+    proc = _start_slow(["run", str(cfg_path), "--out", str(out), "--quiet"], 0.25)
+    try:
+        _wait_for(proc, out, 5)
+        proc.send_signal(signal.SIGTERM)
+        err = proc.communicate(timeout=60)[1]
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 128 + signal.SIGTERM, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    data, attrs = read_snapshots(out)
+    k = data["time"].size
+    assert attrs["status"].startswith("interrupted by SIGTERM after ") and str(k) in attrs["status"]
+    assert lines[0].startswith(f"bsrflow run: interrupted by SIGTERM: {out} keeps {k} snapshot(s) up to "
+                               f"t = {data['time'][-1]:.6g} s; checkpoint {out}.ckpt at t = 0.03 s: "
+                               "`--resume` continues from there"), lines[0]
+    assert main(["run", str(cfg_path), "--out", str(out), "--resume", "--quiet"]) == 0
+    da, _ = assert_same_variables(out, ref_out)
+    assert da.attrs["status"] == "ok"
+
+
+@pytest.mark.parametrize("ckpt", [0.03, 0.0])
+def test_sigint_says_what_was_kept_and_whether_resume_can_continue(tmp_path, capsys, monkeypatch, ckpt):
+    """A real SIGINT (Python raises KeyboardInterrupt, as on Ctrl-C) after the 6th snapshot."""
+    cfg_path = write_config(tmp_path / "c.toml", ckpt=ckpt)
+    out = tmp_path / "c.nc"
+    call = NetCDFWriter.__call__
+
+    def interrupting(self, *a):
+        call(self, *a)
+        if self.n == 6:
+            signal.raise_signal(signal.SIGINT)
+    monkeypatch.setattr(NetCDFWriter, "__call__", interrupting)
+    assert main(["run", str(cfg_path), "--out", str(out), "--quiet"]) == 130
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1, lines
+    data, attrs = read_snapshots(out)
+    assert data["time"].size == 6
+    assert attrs["status"] == "interrupted by Ctrl-C (SIGINT) after 6 snapshots, up to t = 0.05 s"
+    kept = f"bsrflow run: interrupted by Ctrl-C (SIGINT): {out} keeps 6 snapshot(s) up to t = 0.05 s; "
+    if ckpt:
+        assert lines[0] == kept + (f"checkpoint {out}.ckpt at t = 0.03 s: `--resume` continues from there "
+                                   "(snapshots after it are recomputed)")
+    else:
+        assert lines[0] == kept + ("no checkpoint (run.checkpoint_every = 0): `--resume` cannot continue; "
+                                   "run again to start over")
+        assert not os.path.exists(str(out) + ".ckpt")
+
+
+def test_default_config_checkpoints_and_resumes_after_sigkill_bit_for_bit(tmp_path, capsys):
+    """The config `bsrflow init` writes, unchanged: checkpoints are on by default (every 0.1 s,
+    on snapshot times, so they change no step) and a SIGKILLed run resumes to the uninterrupted
+    run's file bit for bit."""
+    cfg_path = tmp_path / "default.toml"
+    assert main(["init", str(cfg_path)]) == 0
+    cfg = load_config(cfg_path)
+    assert cfg.checkpoint_interval() == pytest.approx(0.1)
+    assert set(cfg.checkpoint_times()) <= set(cfg.save_times()) and cfg.checkpoint_times().size == 12
+    full = tmp_path / "full.nc"
+    assert main(["run", str(cfg_path), "--out", str(full), "--quiet"]) == 0
+    # the checkpoints add no event: the run equals run_bsr_column's (which has none) bit for bit
+    ref = run_bsr_column(cfg.column_setup(), cfg.scheme())
+    assert np.array_equal(load(full).rho.values, ref.rho) and load(full).attrs["steps"] == ref.steps
+    out = tmp_path / "killed.nc"
+    proc = _start_slow(["run", str(cfg_path), "--out", str(out), "--quiet"], 0.02)
+    try:
+        _wait_for(proc, out, 30)                     # past the first checkpoint (t = 0.1 s, snapshot 21)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert load(out).attrs["status"] == "running" and load(out).sizes["time"] < 261
+    capsys.readouterr()
+    assert main(["run", str(cfg_path), "--out", str(out), "--resume"]) == 0
+    assert "resumed from t = 0." in capsys.readouterr().out
+    da, db = assert_same_variables(out, full)
+    assert da.attrs["status"] == "ok" and da.attrs["steps"] == db.attrs["steps"]

@@ -3,7 +3,8 @@
 Each command lives in its own module that defines ``add_parser(subparsers)``; the parser it
 adds sets ``func(args) -> int``.  Exit codes: 0 success, 2 invalid input (one line on
 stderr naming the problem), 3 a simulation stopped early (the message says when and where;
-outputs written so far are kept), 1 anything unexpected.
+outputs written so far are kept), 130 (143) interrupted by Ctrl-C (SIGTERM), 1 anything
+unexpected.
 """
 
 from __future__ import annotations
@@ -54,9 +55,11 @@ def main(argv=None) -> int:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         print(f"bsrflow {args.command}: error: {msg}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(f"bsrflow {args.command}: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        # bsrflow.io.runner.run_config puts what was kept and whether --resume can continue
+        msg = " ".join(str(exc).split()) or "interrupted"
+        print(f"bsrflow {args.command}: {msg}", file=sys.stderr)
+        return int(getattr(exc, "exit_code", 130))
 
 
 if __name__ == "__main__":

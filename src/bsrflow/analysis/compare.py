@@ -30,6 +30,7 @@ import time
 
 import numpy as np
 
+from ..io.paths import DIR_RULE, FILE_RULE, check_output_dir, check_output_file
 from ..numerics.solver import SimulationError
 from ..physics.column import ColumnSetup, run_bsr_column
 
@@ -203,10 +204,11 @@ def add_parser(sub):
                            ("demo", "the main job: the tapped-column comparison with figures, on the defaults")):
         p = sub.add_parser(name, help=helptext, description=helptext)
         if name == "demo":
-            p.add_argument("--out", default="out", help="output directory (default: out)")
+            p.add_argument("--out", default="out", metavar="DIR",
+                           help=f"output directory for compare.json and figures/ (default: out; {DIR_RULE})")
         else:
-            p.add_argument("--json", metavar="PATH", help="write the results as JSON")
-            p.add_argument("--figures", metavar="DIR", help="write the figures to DIR")
+            p.add_argument("--json", metavar="PATH", help=f"write the results as JSON ({FILE_RULE})")
+            p.add_argument("--figures", metavar="DIR", help=f"write the figures to DIR ({DIR_RULE})")
         p.add_argument("--scheme", default="seed", help="scheme preset of the seed kernel (default: seed)")
         if name == "compare":
             p.add_argument("--kernel", default="seed", help="seed (the seed's kernel, calibrated on one case; "
@@ -253,8 +255,10 @@ def _packing_main(args) -> int:
     if args.scheme != "seed":
         raise ValueError("--scheme is an option of the seed kernel only (valid with --kernel packing: none)")
     base = ColumnSetup(kernel_name="packing", **kw)
+    if args.json:
+        check_output_file(args.json, "--json")
     if args.figures:
-        os.makedirs(args.figures, exist_ok=True)
+        check_output_dir(args.figures, "--figures", create=True)
     print(f"bsrflow compare --kernel packing: {len(cases)} cases, formulations {', '.join(forms)}, "
           f"{base.points_per_diameter} points per diameter, stiffness factor "
           f"{'auto (impact Mach number 0.01)' if auto else format(base.stiffness_factor, 'g')}")
@@ -282,12 +286,16 @@ def _main(args) -> int:
         kw["points_per_diameter"] = args.ppd
     base = ColumnSetup(**kw)
     if args.command == "demo":
-        json_path = os.path.join(args.out, "compare.json")
-        figures = os.path.join(args.out, "figures")
+        check_output_dir(args.out, "--out", create=True)
+        json_path = check_output_file(os.path.join(args.out, "compare.json"), "--out")
+        figures = check_output_dir(os.path.join(args.out, "figures"), "--out", create=True)
+        check_output_dir(os.path.join(args.out, "figures_packing"), "--out", create=True)
     else:
         json_path, figures = args.json, args.figures
-    if figures:
-        os.makedirs(figures, exist_ok=True)
+        if json_path:
+            check_output_file(json_path, "--json")
+        if figures:
+            check_output_dir(figures, "--figures", create=True)
     print(f"bsrflow {args.command}: tapped column, d = {base.diameter} m, scheme {args.scheme}")
     result = compare(base, scheme=args.scheme, figures=figures)
     print(format_table(result))
@@ -297,7 +305,6 @@ def _main(args) -> int:
         result = demo_packing(result, base, figures=os.path.join(args.out, "figures_packing"))
         print(format_demo_table(result))
     if json_path:
-        os.makedirs(os.path.dirname(os.path.abspath(json_path)), exist_ok=True)
         with open(json_path, "w") as fh:
             json.dump(result, fh, indent=2)
         print(f"wrote {json_path}")

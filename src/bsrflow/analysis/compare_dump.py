@@ -236,16 +236,22 @@ def add_parser(sub):
                    help="override any column parameter (repeatable), e.g. --set restitution=0.8")
     for opt, _field, typ, h in _SETUP_OPTIONS:
         p.add_argument(opt, type=typ, default=None, dest=_field, metavar="N" if typ is int else "VALUE", help=h)
-    p.add_argument("--json", metavar="PATH", help="write the results as JSON")
-    p.add_argument("--figures", metavar="DIR", help="write the figures to DIR")
+    p.add_argument("--json", metavar="PATH", help="write the results as JSON (its folder must exist)")
+    p.add_argument("--figures", metavar="DIR", help="write the figures to DIR (created if missing; "
+                   "the folder holding it must exist)")
     p.set_defaults(func=_main)
 
 
 def _main(args) -> int:
     from ..io.lammps import read_dump, time_mismatch
     from ..physics.column import run_bsr_column
+    from ..io.paths import check_output_dir, check_output_file
     from ..tools.setup_source import SetupSource, parse_value
 
+    if args.json:
+        check_output_file(args.json, "--json")
+    if args.figures:
+        check_output_dir(args.figures, "--figures")
     if args.dt is not None and not (math.isfinite(args.dt) and args.dt > 0):
         raise ValueError(f"--dt {args.dt!r} is outside the valid range (0, inf) s")
     if args.name is not None and (not args.name.strip() or os.sep in args.name):
@@ -299,7 +305,6 @@ def _main(args) -> int:
     for w in result["warnings"]:
         print(f"warning: {w}")
     if args.json:
-        os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
         with open(args.json, "w") as fh:
             json.dump(result, fh, indent=2)
         print(f"wrote {args.json}")

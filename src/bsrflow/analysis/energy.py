@@ -20,11 +20,13 @@ the command), or those of a ``bsrflow compare`` JSON given with ``--calibration`
 from __future__ import annotations
 
 import json
+import math
 import os
 from dataclasses import replace
 
 import numpy as np
 
+from ..io.paths import DIR_RULE, FILE_RULE, check_output_dir, check_output_file
 from ..numerics.solver import Scheme, Simulation, SimulationError
 from ..physics.column import ColumnSetup, column_run_from_result, initial_density
 from ..physics.model import BSRModel
@@ -190,20 +192,60 @@ def _figures(out, runs, setup, outdir):
     plt.close(fig)
 
 
+def read_calibration(path) -> dict:
+    """m0 [kg] and kernel_dissipation of a ``bsrflow compare --json`` file (its "calibration"
+    object).  ValueError, one line naming the file and what is wrong (unreadable, not JSON, a
+    missing key, a value out of range)."""
+    path = os.fspath(path)
+    where = f"--calibration {path}"
+    try:
+        with open(path, encoding="utf-8") as fh:
+            data = json.load(fh)
+    except FileNotFoundError:
+        raise ValueError(f"{where}: no such file") from None
+    except IsADirectoryError:
+        raise ValueError(f"{where}: is a directory, not a JSON file") from None
+    except OSError as exc:
+        raise ValueError(f"{where}: cannot be read ({exc.strerror or type(exc).__name__})") from None
+    except UnicodeDecodeError:
+        raise ValueError(f"{where}: not a JSON text file (not UTF-8)") from None
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{where}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})") from None
+    expect = "expected the JSON written by `bsrflow compare --json`"
+    if not isinstance(data, dict) or "calibration" not in data:
+        raise ValueError(f"{where}: no key 'calibration' at the top level ({expect})")
+    cal = data["calibration"]
+    if not isinstance(cal, dict):
+        raise ValueError(f"{where}: 'calibration' is not an object with m0 and kernel_dissipation ({expect})")
+    for key in ("m0", "kernel_dissipation"):
+        if key not in cal:
+            raise ValueError(f"{where}: no key 'calibration.{key}' ({expect})")
+    checks = (("m0", lambda v: 0.0 < v <= 1e12, "(0, 1e+12] kg"),
+              ("kernel_dissipation", lambda v: 0.0 <= v < 1.0, "[0, 1)"))
+    out = {}
+    for key, ok, rng in checks:
+        v = cal[key]
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not ok(v):
+            raise ValueError(f"{where}: calibration.{key} = {v!r} is outside the valid range {rng}")
+        out[key] = float(v)
+    return out
+
+
 def add_parser(sub):
     p = sub.add_parser("energy", help="kinetic energy with/without the moving average; local wave speed",
                        description=__doc__.split("\n\n")[0])
-    p.add_argument("--json", metavar="PATH", help="write results as JSON")
-    p.add_argument("--figures", metavar="DIR", help="write figures to DIR")
-    p.add_argument("--calibration", metavar="COMPARE_JSON", help="take m0 and eps from a `bsrflow compare` JSON")
+    p.add_argument("--json", metavar="PATH", help=f"write results as JSON ({FILE_RULE})")
+    p.add_argument("--figures", metavar="DIR", help=f"write figures to DIR ({DIR_RULE})")
+    p.add_argument("--calibration", metavar="COMPARE_JSON", help="take m0 and eps from the JSON of `bsrflow compare --json` (its \"calibration\" object)")
     p.set_defaults(func=_main)
 
 
 def _main(args) -> int:
-    cal = None
-    if args.calibration:
-        with open(args.calibration) as fh:
-            cal = json.load(fh)["calibration"]
+    if args.json:
+        check_output_file(args.json, "--json")
+    if args.figures:
+        check_output_dir(args.figures, "--figures")
+    cal = read_calibration(args.calibration) if args.calibration else None
     out = energy_study(cal, args.figures)
     for label, r in out["runs"].items():
         print(f"{label:18s} " + ("completed to 1.4 s" if r["completed"] else f"broke down at t = {r['stopped_at_s']:.4f} s"))
@@ -213,7 +255,6 @@ def _main(args) -> int:
               f"middle tracer: {np.nanmin(w['middle_tracer_m_s']):.3g}..{np.nanmax(w['middle_tracer_m_s']):.3g} m/s "
               f"(long-wave speed at the stacked density {w['long_wave_speed_at_stacked_density_m_s']:.3g} m/s)")
     if args.json:
-        os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
         with open(args.json, "w") as fh:
             json.dump(out, fh, indent=1)
         print(f"wrote {args.json}")

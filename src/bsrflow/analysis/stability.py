@@ -525,17 +525,21 @@ def add_parser(sub):
     p = sub.add_parser("stability", help="von Neumann CFL limits of the steppers (seed section 5.4)",
                        description="Compute the CFL limits of every stepper with and without the "
                                    "moving average, as implemented and as derived in the seed.")
-    p.add_argument("--json", metavar="PATH", help="write {'limits': [...]} to PATH")
-    p.add_argument("--figures", metavar="DIR", help="write figures like the seed's 5.1-5.4 to DIR")
+    p.add_argument("--json", metavar="PATH", help="write {'limits': [...]} to PATH (its folder must exist)")
+    p.add_argument("--figures", metavar="DIR", help="write figures like the seed's 5.1-5.4 to DIR "
+                   "(created if missing; the folder holding it must exist)")
     p.set_defaults(func=func)
 
 
 def func(args) -> int:
+    from ..io.paths import check_output_dir, check_output_file
+    if getattr(args, "json", None):
+        check_output_file(args.json, "--json")
+    if getattr(args, "figures", None):
+        check_output_dir(args.figures, "--figures")
     rows = cfl_table()
     print(format_table(rows))
     if getattr(args, "json", None):
-        d = os.path.dirname(os.path.abspath(args.json))
-        os.makedirs(d, exist_ok=True)
         with open(args.json, "w") as fh:
             json.dump({"limits": rows}, fh, indent=2)
         print(f"wrote {args.json}")

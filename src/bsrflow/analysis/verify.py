@@ -203,7 +203,9 @@ def case_smooth_time(scheme_kw: dict, steps=(64, 128, 256, 512), n_cells=256, na
 
 
 def run_cases(which=None, log=print):
-    """Run the verification cases (all by default). Returns the list of case dicts."""
+    """Run the verification cases (all by default; ``which``: names of cases to run, ValueError
+    naming the valid ones for an unknown name, before anything runs). Returns the list of case
+    dicts."""
     seed = Scheme.preset("seed")
     unf = Scheme.preset("seed", filter=False, name="seed_unfiltered")
     jobs = [
@@ -236,6 +238,10 @@ def run_cases(which=None, log=print):
                                                                  name="smooth_time_friction_kutta3")),
     ]
     jobs += _extra_jobs()
+    valid = [name for name, _ in jobs]
+    unknown = [w for w in (which or []) if w not in valid]
+    if unknown:                                  # before any case runs
+        raise ValueError(f"--case {unknown[0]!r} is not a verification case; valid names: {', '.join(valid)}")
     out = []
     for name, job in jobs:
         if which and name not in which:
@@ -281,17 +287,18 @@ def format_table(cases) -> str:
 def add_parser(sub):
     p = sub.add_parser("verify", help="run the verification cases (exact solutions, refinement orders)",
                        description="Run the verification cases and print observed orders of convergence.")
-    p.add_argument("--json", metavar="PATH", help="write the results as JSON to PATH")
-    p.add_argument("--case", action="append", metavar="NAME", help="run only this case (repeatable)")
+    p.add_argument("--json", metavar="PATH", help="write the results as JSON to PATH (its folder must exist)")
+    p.add_argument("--case", action="append", metavar="NAME", help="run only this case (repeatable; an unknown name lists the valid ones)")
     p.set_defaults(func=_main)
 
 
 def _main(args) -> int:
+    from ..io.paths import check_output_file
+    if args.json:
+        check_output_file(args.json, "--json")
     flat = run_cases(args.case)
     print(format_table(flat))
     if args.json:
-        import os
-        os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
         with open(args.json, "w") as fh:
             json.dump({"cases": flat}, fh, indent=2, default=_json_default)
         print(f"wrote {args.json}")

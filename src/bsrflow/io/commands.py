@@ -6,15 +6,21 @@
 
 Exit codes (``bsrflow.cli``): 0 ok; 2 invalid input, one line on stderr
 ``bsrflow run: error: <field>: <problem>``; 3 the simulation stopped early (the file keeps the
-snapshots saved so far, its ``status`` attribute says why); 130 interrupted.
+snapshots saved so far, its ``status`` attribute says why); 130 interrupted by Ctrl-C, 143 by
+SIGTERM (both handled alike: status "interrupted ...", and a message saying what was kept and
+whether ``--resume`` can continue).
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
 import sys
+import threading
 
 from .config import ConfigError, default_config_text, load_config, parse_override
+from .paths import check_output_file
 
 __all__ = ["add_parser"]
 
@@ -23,7 +29,7 @@ def add_parser(sub):
     p = sub.add_parser("init", help="write a commented default config (TOML) for `bsrflow run`",
                        description="Write a commented default configuration of the tapped column "
                                    "(units and valid ranges in the comments).")
-    p.add_argument("path", metavar="PATH", help="file to write, e.g. column.toml")
+    p.add_argument("path", metavar="PATH", help="file to write, e.g. column.toml (its folder must exist)")
     p.add_argument("--force", action="store_true", help="overwrite PATH if it exists")
     p.set_defaults(func=_init)
 
@@ -31,8 +37,9 @@ def add_parser(sub):
                        description="Validate CONFIG, run the tapped column and write snapshots to a "
                                    "netCDF4 file as the run goes.")
     p.add_argument("config", metavar="CONFIG", help="TOML config (see `bsrflow init`)")
-    p.add_argument("--out", metavar="FILE.nc", help="output file (default: CONFIG with the suffix .nc), "
-                   "replaced if it exists (unless --resume); checkpoints go to FILE.nc.ckpt")
+    p.add_argument("--out", metavar="FILE.nc", help="output file (default: CONFIG with the suffix .nc; "
+                   "its folder must exist), replaced if it exists (unless --resume); checkpoints go to "
+                   "FILE.nc.ckpt")
     p.add_argument("--resume", action="store_true", help="continue from FILE.nc.ckpt (same config)")
     p.add_argument("--quiet", action="store_true", help="no progress bar, no summary")
     p.add_argument("--scheme", choices=("seed", "accurate"), help="override numerics.scheme")
@@ -41,15 +48,35 @@ def add_parser(sub):
     p.set_defaults(func=_run)
 
 
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM, handled like Ctrl-C (the run's file gets status "interrupted ...")."""
+
+    signal_name = "SIGTERM"
+    signal_number = int(signal.SIGTERM)
+
+
+@contextlib.contextmanager
+def _sigterm_as_interrupt():
+    """While the block runs, SIGTERM raises :class:`_Terminated` (a KeyboardInterrupt) in the
+    main thread, so a terminated run closes its file as an interrupted one does."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        raise _Terminated()
+
+    old = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
 def _init(args) -> int:
-    path = args.path
-    if os.path.isdir(path):
-        raise ConfigError(path, "is a directory; give a file name, e.g. column.toml")
+    path = check_output_file(args.path, "PATH")
     if os.path.exists(path) and not args.force:
         raise ConfigError(path, "exists; use --force to overwrite it")
-    folder = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(folder):
-        raise ConfigError(path, f"directory {folder} does not exist")
     with open(path, "w", encoding="utf-8") as fh:
         fh.write(default_config_text())
     print(f"wrote {path}; run it with: bsrflow run {path}")
@@ -91,7 +118,8 @@ def _run(args) -> int:
             print(f"bsrflow run: {msg}", flush=True)
 
     try:
-        outcome = run_config(config, out, resume=args.resume, progress=progress, log=log)
+        with _sigterm_as_interrupt():
+            outcome = run_config(config, out, resume=args.resume, progress=progress, log=log)
     finally:
         if bar is not None:
             bar.close()

@@ -5,7 +5,8 @@ A configuration has four tables, every key optional (defaults below, SI units)::
     [column]    n_spheres, diameter [m], density [kg/m3], stiffness [N/m], restitution,
                 m0 [kg], kernel_dissipation, gravity [m/s2]
     [tap]       a_over_d, frequency [Hz], start [s], n_taps, period [s], impulses
-    [run]       t_end [s], save_every [s], checkpoint_every [s] (0: no checkpoints)
+    [run]       t_end [s], save_every [s], checkpoint_every [s] (absent: about every 0.1 s;
+                0: no checkpoints)
     [numerics]  scheme ("seed" | "accurate"), points_per_diameter, and the optional
                 overrides cfl, stepper, rtol, atol [m/s, kg/m], domain_height [m]
 
@@ -61,6 +62,8 @@ _STEPPERS = ("euler", "heun", "kutta3", "rk3", "rk4", "bs32", "rk4_0.4_0.25")
 _EMBEDDED = ("heun", "kutta3", "rk3", "bs32")
 _SCHEMES = ("seed", "accurate")
 _MAX_CHECKPOINTS = 100_000
+_AUTO_CHECKPOINT = 0.1          # [s] default checkpoint interval (rounded up to whole snapshots)
+_AUTO_CHECKPOINTS = 1000        # at most this many default checkpoints per run
 _MAX_CELLS = 2_000_000
 _MAX_HEIGHT = 1e4     # [m], the largest domain
 
@@ -165,9 +168,10 @@ FIELDS: tuple[_Field, ...] = (
     _Field("run", "t_end", "float", 1.3, "final time", "s", 0, 1e5, lo_open=True),
     _Field("run", "save_every", "float", 0.005, "time between snapshots written to the netCDF file "
            "(at most t_end)", "s", 0, None, lo_open=True),
-    _Field("run", "checkpoint_every", "float", 0.0, "simulated time between checkpoints "
-           "<out>.ckpt that `bsrflow run --resume` continues from (0: no checkpoints; at most "
-           "t_end)", "s", 0, None),
+    _Field("run", "checkpoint_every", "float", None, "simulated time between checkpoints "
+           "<out>.ckpt that `bsrflow run --resume` continues from (default, when absent: every "
+           f"{_AUTO_CHECKPOINT:g} s rounded up to a whole number of snapshots, at most "
+           f"{_AUTO_CHECKPOINTS} per run; 0: no checkpoints; at most t_end)", "s", 0, None),
     # [numerics]
     _Field("numerics", "scheme", "str", "seed", "scheme preset: \"seed\" (Kutta RK3 + moving "
            "average every step, CFL 0.5) or \"accurate\" (four-stage RK4 rk4_0.4_0.25, CFL 0.2, "
@@ -460,7 +464,7 @@ class Config:
                               f"(at most {_MAX_SNAPSHOTS} snapshots)", v["run.save_every"])
         f = _BY_NAME["run.checkpoint_every"]
         ce = v["run.checkpoint_every"]
-        if ce != 0.0 and not (math.isfinite(ce) and t_end / _MAX_CHECKPOINTS <= ce <= t_end):
+        if ce is not None and ce != 0.0 and not (math.isfinite(ce) and t_end / _MAX_CHECKPOINTS <= ce <= t_end):
             rng = f"0 (off) or [{t_end / _MAX_CHECKPOINTS:.3g}, {t_end:g}] s"
             raise ConfigError(f.name, f"{ce!r} is outside the valid range {rng} (at most run.t_end, "
                               f"at most {_MAX_CHECKPOINTS} checkpoints)", ce, rng)
@@ -615,14 +619,34 @@ class Config:
         from ..numerics.solver import save_schedule
         return save_schedule(0.0, self._values["run.t_end"], self._values["run.save_every"])
 
+    def checkpoint_interval(self) -> float:
+        """The checkpoint interval [s]: run.checkpoint_every, or when absent the default
+        0.1 s rounded up to a whole number of snapshots (and at least t_end/1000); 0: off."""
+        ce = self._values["run.checkpoint_every"]
+        if ce is not None:
+            return float(ce)
+        se, t_end = self._values["run.save_every"], self._values["run.t_end"]
+        k = max(1, math.ceil(max(_AUTO_CHECKPOINT, t_end / _AUTO_CHECKPOINTS) / se - 1e-9))
+        return k * se
+
     def checkpoint_times(self):
-        """Checkpoint times [s]: every run.checkpoint_every from 0, strictly inside (0, t_end)."""
+        """Checkpoint times [s]: every run.checkpoint_every from 0, strictly inside (0, t_end).
+
+        A checkpoint time within round-off (1e-9 save_every) of a snapshot time is that snapshot
+        time exactly (the same float of :meth:`save_times`): checkpoints every whole number of
+        snapshots then add no event to the run, so its step sequence and results are bit for
+        bit those of the run without checkpoints."""
         import numpy as np
-        ce, t_end = self._values["run.checkpoint_every"], self._values["run.t_end"]
+        ce, t_end = self.checkpoint_interval(), self._values["run.t_end"]
         if ce <= 0.0:
             return np.zeros(0)
         n = int(np.floor(t_end / ce + 1e-9))
         ts = ce * np.arange(1, n + 1)
+        saves = self.save_times()
+        se = self._values["run.save_every"]
+        j = np.clip(np.rint(ts / se).astype(np.int64), 0, saves.size - 1)
+        near = np.abs(saves[j] - ts) <= 1e-9 * se
+        ts = np.where(near, saves[j], ts)
         return ts[ts < t_end - 1e-12 * max(1.0, t_end)]
 
     # access and output --------------------------------------------------------------------------
@@ -670,7 +694,7 @@ class Config:
                 lines.append(f"# {f.doc}{unit}; valid: {rng}")
                 val = self._values[f.name]
                 if val is None:
-                    example = {"numerics.cfl": "0.5", "numerics.stepper": '"bs32"', "numerics.rtol": "1e-4",
+                    example = {"run.checkpoint_every": "0.1", "numerics.cfl": "0.5", "numerics.stepper": '"bs32"', "numerics.rtol": "1e-4",
                                "numerics.atol": "[1e-3, 1e-3]", "numerics.domain_height": "3.5"}[f.name]
                     lines.append(f"# {f.key} = {example}")
                 else:

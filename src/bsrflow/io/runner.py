@@ -35,6 +35,7 @@ from ..physics.column import initial_density
 from .checkpoint import Checkpoint, checkpoint_path, read_checkpoint, write_checkpoint
 from .config import Config, ConfigError
 from .netcdf import NetCDFWriter, read_snapshots
+from .paths import check_output_file
 
 __all__ = ["run_config", "RunOutcome", "column_simulation"]
 
@@ -106,18 +107,19 @@ def run_config(config: Config, out, *, resume: bool = False, progress=None, log=
     log : callable ``log(message)`` for informational lines.
     Raises ConfigError (a ValueError; one line) for an unusable output path or a resume that
     cannot be done, and :class:`SimulationError` when a monitor stops the run: the file keeps
-    every snapshot saved and its ``status`` attribute is the message.
+    every snapshot saved and its ``status`` attribute is the message.  A KeyboardInterrupt
+    (Ctrl-C; ``bsrflow run`` raises one with ``signal_name = "SIGTERM"`` on SIGTERM) closes the
+    file with status "interrupted ..." and is re-raised with one line as its message (what was
+    kept, whether ``--resume`` can continue) and ``exit_code`` 128 + the signal number.
     """
     out = os.fspath(out)
     log = log or (lambda msg: None)
-    folder = os.path.dirname(os.path.abspath(out))
-    if not os.path.isdir(folder):
-        raise ConfigError("--out", f"directory {folder} does not exist")
-    if os.path.isdir(out):
-        raise ConfigError("--out", f"{out} is a directory; give a file name (e.g. run.nc)")
+    check_output_file(out, "--out")                   # before any work (bsrflow.io.paths)
+    ckpt_file = checkpoint_path(out)
+    if os.path.isdir(ckpt_file):
+        raise ConfigError("--out", f"the checkpoint file {ckpt_file} of this output is a directory")
     if config["model.kernel"] == "packing":
         return _run_packing_config(config, out, resume=resume, progress=progress, log=log)
-    ckpt_file = checkpoint_path(out)
     setup, grid, model, sim = column_simulation(config)
     save_times = config.save_times()
     ckpt_times = config.checkpoint_times()
@@ -143,7 +145,7 @@ def run_config(config: Config, out, *, resume: bool = False, progress=None, log=
                     return RunOutcome(out, "complete already", int(data["time"].size),
                                       float(data["time"][-1]), 0, 0.0, float(top[i]), float(data["time"][i]))
             raise ConfigError("--resume", f"no checkpoint {ckpt_file} to resume from (checkpoints are "
-                              "written when run.checkpoint_every > 0); run without --resume to start over")
+                              "written unless run.checkpoint_every = 0); run without --resume to start over")
         if not os.path.exists(out):
             raise ConfigError("--resume", f"the checkpoint {ckpt_file} exists but the output {out} does not; "
                               "run without --resume to start over")
@@ -179,33 +181,38 @@ def run_config(config: Config, out, *, resume: bool = False, progress=None, log=
         writer = NetCDFWriter(out, grid.x, grid.dx, n_tr, floor, attrs, expected_snapshots=save_times.size)
         u0, rho0, tr0 = np.zeros(grid.n_cells), initial_density(setup, grid.x), setup.sphere_centres()
 
-    # compile the time loop now (a no-op advance: t_end = t), not in the middle of the progress bar
-    log("compiling the solver (once per process; about 10 s)")
-    compile_start = _time.perf_counter()
-    sim.advance(np.array(u0, float), np.array(rho0, float), t0, t0, np.array(tr0, float))
-    wall_start = _time.perf_counter()
-    compile_time = wall_start - compile_start
+    last_ckpt = [t0 if resume else None]             # time of the checkpoint on disk
+    toml_text = config.to_toml()
     rejected_start = int(sim.counters[0])
-    if progress is not None:
-        progress(t0)
+    wall_start = _time.perf_counter()
 
     def on_checkpoint(t, u, rho, tr, steps):
         write_checkpoint(ckpt_file, Checkpoint(
             t=t, u=u, rho=rho, tracers=tr, steps=steps0 + steps,
             rejected_steps=rejected0 + int(sim.counters[0]) - rejected_start,
-            wall_time=wall0 + _time.perf_counter() - wall_start, n_snapshots=writer.n, config=config.to_toml()))
+            wall_time=wall0 + _time.perf_counter() - wall_start, n_snapshots=writer.n, config=toml_text))
+        last_ckpt[0] = t
         if progress is not None:
             progress(t)
 
     try:
+        # compile the time loop now (a no-op advance: t_end = t), not in the middle of the progress bar
+        log("compiling the solver (once per process; about 10 s)")
+        compile_start = _time.perf_counter()
+        sim.advance(np.array(u0, float), np.array(rho0, float), t0, t0, np.array(tr0, float))
+        wall_start = _time.perf_counter()
+        compile_time = wall_start - compile_start
+        rejected_start = int(sim.counters[0])
+        if progress is not None:
+            progress(t0)
         res = sim.run(u0, rho0, t_end, t_start=t0, save_times=save_times[save_times >= t0], tracers=tr0,
                       observers=[writer], progress=progress, extra_event_times=ckpt_times[ckpt_times > t0],
                       on_event=on_checkpoint, restart=resume)
     except SimulationError as exc:
         writer.close(str(exc), rejected_steps=np.int64(rejected0 + int(sim.counters[0]) - rejected_start))
         raise
-    except KeyboardInterrupt:
-        writer.close(f"interrupted after {writer.n} snapshots")
+    except KeyboardInterrupt as exc:
+        _interrupted(exc, writer, out, resume, config, last_ckpt[0], ckpt_file, ckpt_times, t0)
         raise
     except BaseException as exc:
         writer.close(f"failed: {type(exc).__name__}: {exc}")
@@ -221,6 +228,30 @@ def run_config(config: Config, out, *, resume: bool = False, progress=None, log=
                       wall0 + _time.perf_counter() - wall_start, float(top[i]), float(t[i]),
                       resumed_from=t0 if resume else None, compile_time=compile_time,
                       rejected_steps=rejected, adaptive=sim.scheme.rtol is not None)
+
+
+def _interrupted(exc, writer, out, resume, config, last_ckpt_t, ckpt_file, ckpt_times, t0):
+    """Close the file of an interrupted run (Ctrl-C or SIGTERM) with status "interrupted ..." and
+    give ``exc`` one line saying what was kept and whether ``--resume`` can continue."""
+    signame = getattr(exc, "signal_name", None) or "SIGINT"
+    how = "by SIGTERM" if signame == "SIGTERM" else "by Ctrl-C (SIGINT)"
+    times = writer.series("time")
+    kept = (f"{out} keeps {writer.n} snapshot(s) up to t = {times[-1]:.6g} s" if writer.n else
+            f"no snapshot was written ({out} {'was kept as it was' if resume else 'was not written'})")
+    writer.close(f"interrupted {how} after {writer.n} snapshots" +
+                 (f", up to t = {times[-1]:.6g} s" if writer.n else ""))
+    interval = config.checkpoint_interval()
+    if last_ckpt_t is not None and os.path.exists(ckpt_file):
+        cont = (f"checkpoint {ckpt_file} at t = {last_ckpt_t:.6g} s: `--resume` continues from there "
+                f"(snapshots after it are recomputed)")
+    elif interval <= 0.0:
+        cont = "no checkpoint (run.checkpoint_every = 0): `--resume` cannot continue; run again to start over"
+    else:
+        first = ckpt_times[ckpt_times > t0]
+        due = f" (the first was due at t = {first[0]:.6g} s)" if first.size else " (the run is shorter than run.checkpoint_every)"
+        cont = f"no checkpoint written yet{due}: `--resume` cannot continue; run again to start over"
+    exc.args = (f"interrupted {how}: {kept}; {cont}",)
+    exc.exit_code = 128 + int(getattr(exc, "signal_number", 2))
 
 
 def _run_packing_config(config: Config, out, *, resume=False, progress=None, log=None) -> RunOutcome:
@@ -287,7 +318,10 @@ def _run_packing_config(config: Config, out, *, resume=False, progress=None, log
     if progress is not None:
         progress(t0)
 
+    last_ckpt = [None]
+
     def on_checkpoint(t, d):
+        last_ckpt[0] = t
         write_checkpoint(ckpt_file, Checkpoint(
             t=t, u=np.zeros(0), rho=np.zeros(0), tracers=np.zeros(0), steps=int(d.counters[0]), rejected_steps=0,
             wall_time=wall0 + _time.perf_counter() - wall_start, n_snapshots=writer.n, config=config.to_toml(),
@@ -301,8 +335,8 @@ def _run_packing_config(config: Config, out, *, resume=False, progress=None, log
     except SimulationError as exc:
         writer.close(str(exc))
         raise
-    except KeyboardInterrupt:
-        writer.close(f"interrupted after {writer.n} snapshots")
+    except KeyboardInterrupt as exc:
+        _interrupted(exc, writer, out, resume, config, last_ckpt[0], ckpt_file, ckpt_times, t0)
         raise
     except BaseException as exc:
         writer.close(f"failed: {type(exc).__name__}: {exc}")

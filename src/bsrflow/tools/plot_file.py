@@ -18,7 +18,9 @@ Figures (PNG, written to DIR, default the file's directory, named ``<stem>_<figu
 Heights are in units of d when the file has a ``diameter`` attribute, else in metres.  A file
 still being written (or cut short) is read as far as it goes: snapshots whose time is missing
 (netCDF fill value or NaN) are dropped, missing values inside variables are left as gaps, and a
-figure whose variables are absent is skipped with a note on stderr.  Labels use the variables'
+figure whose variables are absent is skipped with a note on stderr.  A warning line on stderr
+says when the file's ``status`` attribute is not "ok" (``running``: the run was killed or is
+still going) and when ρ is NaN everywhere; the figures are drawn all the same.  Labels use the variables'
 ``long_name``/``units`` attributes when present.
 """
 
@@ -28,6 +30,8 @@ import os
 import sys
 
 import numpy as np
+
+from ..io.paths import DIR_RULE, check_output_dir
 
 __all__ = ["plot_file", "add_parser", "load_output"]
 
@@ -130,6 +134,18 @@ def plot_file(path, out: str | None = None, log=print) -> list[str]:
         written.append(p)
         if log:
             log(p)
+
+    status = ds.attrs.get("status")
+    if isinstance(status, bytes):
+        status = status.decode(errors="replace")
+    upto = f"the figures show the {t.size} snapshot(s) up to t = {t[-1]:.6g} s"
+    if status == "running":
+        note(f"warning: {path}: status \"running\": the run was killed (or is still going); {upto}")
+    elif status is not None and status != "ok":
+        note(f"warning: {path}: the run did not finish (status: {' '.join(str(status).split())}); {upto}")
+    rho_all = series("rho")
+    if rho_all is not None and not np.isfinite(rho_all).any():
+        note(f"warning: {path}: rho is NaN in every snapshot: the density figure is empty")
 
     floor = series("floor")
     floor_missing = floor is None
@@ -244,10 +260,13 @@ def add_parser(sub):
     helptext = "draw the standard figures (density map, tracers, top/mass centre, kinetic energy) of an output file"
     p = sub.add_parser("plot", help=helptext, description=helptext)
     p.add_argument("file", metavar="FILE.nc", help="netCDF output of a column run")
-    p.add_argument("--out", metavar="DIR", default=None, help="directory for the PNG files (default: the file's)")
+    p.add_argument("--out", metavar="DIR", default=None,
+                   help=f"directory for the PNG files (default: the file's; {DIR_RULE})")
     p.set_defaults(func=_main)
 
 
 def _main(args) -> int:
-    plot_file(args.file, args.out)
+    out = args.out if args.out is not None else os.path.dirname(os.path.abspath(args.file))
+    check_output_dir(out, "--out" if args.out is not None else "--out (default: the file's directory)")
+    plot_file(args.file, out)
     return 0

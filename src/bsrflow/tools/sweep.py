@@ -23,7 +23,9 @@
   of the top height against the first parameter, one line per value of the second (``--figure``).
 
 Exit code 0 when every case succeeded, 3 when some did not (the file is still written), 2 for a
-malformed ``--param``/``--set`` or an unknown parameter name.
+malformed ``--param``/``--set``, an unknown parameter name, a case whose configuration is
+invalid (every case is checked before the cluster starts), a scheduler that cannot be reached
+(5 s timeout) or an unusable output path (checked first).
 
 The base configuration comes from :class:`bsrflow.tools.setup_source.SetupSource`:
 ``bsrflow.io.config.load_config(CONFIG).with_overrides(overrides).column_setup()`` when that
@@ -45,7 +47,7 @@ import numpy as np
 
 from .setup_source import SetupSource, canonical_name, coerce_value, parameter_info, parse_value
 
-__all__ = ["parse_param", "parse_params", "make_cases", "run_case", "run_sweep", "to_dataset", "sweep_figure",
+__all__ = ["parse_param", "parse_params", "make_cases", "check_cases", "check_scheduler", "run_case", "run_sweep", "to_dataset", "sweep_figure",
            "RESULTS", "add_parser"]
 
 RESULTS = {
@@ -217,7 +219,11 @@ def run_sweep(params: dict, source: SetupSource | None = None, scheduler: str | 
     t0 = time.perf_counter()
     cluster = None
     if scheduler:
-        client = Client(scheduler, timeout="20s")
+        try:
+            client = Client(scheduler, timeout=f"{SCHEDULER_TIMEOUT:g}s")
+        except Exception as exc:  # noqa: BLE001 - refused, timed out, or not a dask scheduler at all
+            raise ValueError(f"--scheduler {scheduler}: cannot connect to a dask scheduler "
+                             f"({type(exc).__name__}: {_one_line(exc)}; is a dask scheduler listening there?)") from None
     else:
         cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, dashboard_address=None,
                                silence_logs=logging.ERROR)
@@ -244,6 +250,49 @@ def run_sweep(params: dict, source: SetupSource | None = None, scheduler: str | 
     ds.attrs.update(scheduler=str(scheduler or f"LocalCluster ({n_workers} processes) at {address}"),
                     wall_time_s=time.perf_counter() - t0)
     return ds
+
+
+def check_cases(params: dict, source: SetupSource) -> None:
+    """Validate the configuration of every case of the sweep (cheap: no run); ValueError with
+    the first invalid case and its one-line error.  The command line calls this before it
+    starts a cluster; :func:`run_sweep` itself records invalid cases as "invalid" instead."""
+    source.check_names({n: v[0] for n, v in params.items()})
+    for _idx, overrides in make_cases(params):
+        try:
+            source.setup_and_scheme(overrides)
+        except (ValueError, TypeError, KeyError) as exc:
+            raise ValueError(f"--param: the case {_case_label(overrides)} is invalid: {_one_line(exc)}") from None
+
+
+SCHEDULER_TIMEOUT = 5.0
+"""Seconds to wait for a connection to ``--scheduler`` before giving up."""
+
+
+def check_scheduler(address: str, timeout: float = SCHEDULER_TIMEOUT) -> None:
+    """A TCP connection to the dask scheduler at ``address`` (``tcp://host:port`` or
+    ``host:port``) can be opened within ``timeout`` seconds; ValueError (one line) otherwise.
+    Other protocols (tls://, ucx://, ...) are left to dask."""
+    import socket
+    from urllib.parse import urlsplit
+
+    text = address if "://" in address else f"tcp://{address}"
+    parts = urlsplit(text)
+    if parts.scheme != "tcp":
+        return
+    try:
+        host, port = parts.hostname, parts.port or 8786
+    except ValueError as exc:
+        raise ValueError(f"--scheduler {address!r} is not an address tcp://HOST:PORT ({exc})") from None
+    if not host:
+        raise ValueError(f"--scheduler {address!r} is not an address tcp://HOST:PORT")
+    try:
+        with socket.create_connection((host, port), timeout=timeout):
+            pass
+    except OSError as exc:
+        why = "timed out" if isinstance(exc, TimeoutError) else (exc.strerror or type(exc).__name__)
+        raise ValueError(f"--scheduler {address}: cannot connect to a dask scheduler at {host}:{port} ({why}, "
+                         f"{timeout:g} s timeout); start one there or leave out --scheduler for a local "
+                         "cluster") from None
 
 
 def _case_label(overrides) -> str:
@@ -385,12 +434,19 @@ def add_parser(sub):
     p.add_argument("--scheduler", metavar="ADDRESS", default=None,
                    help="address of a running dask scheduler (default: start a LocalCluster)")
     p.add_argument("--workers", type=int, default=2, help="LocalCluster worker processes (default 2)")
-    p.add_argument("--out", default="sweep.nc", metavar="FILE.nc", help="netCDF output (default sweep.nc)")
-    p.add_argument("--figure", default=None, metavar="F.png", help="write the top-height figure here")
+    p.add_argument("--out", default="sweep.nc", metavar="FILE.nc",
+                   help="netCDF output (default sweep.nc; its folder must exist)")
+    p.add_argument("--figure", default=None, metavar="F.png",
+                   help="write the top-height figure here (its folder must exist)")
     p.set_defaults(func=_main)
 
 
 def _main(args) -> int:
+    from ..io.paths import check_output_file
+
+    check_output_file(args.out, "--out")
+    if args.figure:
+        check_output_file(args.figure, "--figure")
     params = parse_params(args.param)
     fixed = {}
     for item in args.set:
@@ -407,6 +463,9 @@ def _main(args) -> int:
     if fixed:
         source = source.with_fixed(fixed)
     n = int(np.prod([len(v) for v in params.values()]))
+    check_cases(params, source)                        # every case, before any cluster starts
+    if args.scheduler:
+        check_scheduler(args.scheduler)
     where = args.scheduler or f"a LocalCluster of {args.workers} worker processes"
     print(f"bsrflow sweep: {n} case(s) over {', '.join(params)} on {where}"
           + (f"; config {args.config} ({'bsrflow.io.config' if source.uses_config_module else 'fallback reader'})"

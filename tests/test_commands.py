@@ -1,0 +1,180 @@
+"""Bad input to the commands (issue #20, "Commands"): one line, exit code 2, before any work;
+`plot` warns about killed or all-NaN files; `initial_density` is linear in spheres + cells and
+equal to the plain loop bit for bit.  (SIGTERM/SIGINT and default checkpoints: test_run_io.py.)"""
+import json
+import time
+
+import numpy as np
+import pytest
+
+from bsrflow.cli import main
+
+
+def _fail(*a, **k):
+    raise AssertionError("work started before the input was checked")
+
+
+def _one_line(capsys, prefix):
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1, err
+    assert err[0].startswith(prefix), err[0]
+    return err[0]
+
+
+# -- verify --------------------------------------------------------------------------------------
+def test_verify_unknown_case_lists_the_valid_names(capsys, monkeypatch):
+    import bsrflow.analysis.verify as verify
+
+    for name in ("case_example_a", "case_example_b", "case_smooth_space", "case_smooth_time"):
+        monkeypatch.setattr(verify, name, _fail)
+    assert main(["verify", "--case", "example_a", "--case", "nosuch"]) == 2
+    line = _one_line(capsys, "bsrflow verify: error: --case 'nosuch' is not a verification case; valid names: ")
+    for name in ("example_a", "example_b_unfiltered", "smooth_time_friction_kutta3", "embedding"):
+        assert name in line
+
+
+# -- energy --calibration --------------------------------------------------------------------------
+@pytest.mark.parametrize("text, problem", [
+    ('{"cases": []}', "no key 'calibration' at the top level"),
+    ('{"calibration": {"m0": 410.0}}', "no key 'calibration.kernel_dissipation'"),
+    ('{"calibration": [1, 2]}', "'calibration' is not an object"),
+    ('{"calibration": {"m0": -1, "kernel_dissipation": 0.5}}', "calibration.m0 = -1 is outside the valid range"),
+    ('{"calibration": {"m0": 400, "kernel_dissipation": "x"}}', "calibration.kernel_dissipation = 'x' is outside"),
+    ("{not json", "not valid JSON (line 1, column 2: "),
+    ("[1, 2", "not valid JSON (line 1, column 6: "),
+    (b"\xff\xfe\x00garbage", "not a JSON text file"),
+])
+def test_energy_calibration_file_problems_name_the_file(tmp_path, capsys, monkeypatch, text, problem):
+    import bsrflow.analysis.energy as energy
+
+    monkeypatch.setattr(energy, "energy_study", _fail)
+    path = tmp_path / "cal.json"
+    if isinstance(text, bytes):
+        path.write_bytes(text)
+    else:
+        path.write_text(text)
+    assert main(["energy", "--calibration", str(path)]) == 2
+    line = _one_line(capsys, f"bsrflow energy: error: --calibration {path}: ")
+    assert problem in line, line
+
+
+def test_energy_calibration_missing_file_and_a_good_one(tmp_path, capsys, monkeypatch):
+    import bsrflow.analysis.energy as energy
+
+    monkeypatch.setattr(energy, "energy_study", _fail)
+    assert main(["energy", "--calibration", str(tmp_path / "nope.json")]) == 2
+    _one_line(capsys, f"bsrflow energy: error: --calibration {tmp_path / 'nope.json'}: no such file")
+    good = tmp_path / "compare.json"
+    good.write_text(json.dumps({"calibration": {"m0": 410.0, "kernel_dissipation": 0.83, "case": "x"}}))
+    assert energy.read_calibration(good) == {"m0": 410.0, "kernel_dissipation": 0.83}
+
+
+# -- sweep ---------------------------------------------------------------------------------------
+def test_sweep_unreachable_scheduler_one_line_quickly(tmp_path, capsys, monkeypatch):
+    import bsrflow.tools.sweep as sweep
+
+    monkeypatch.setattr(sweep, "run_case", _fail)
+    t0 = time.perf_counter()
+    code = main(["sweep", "--param", "a_over_d=0.5,1", "--scheduler", "tcp://127.0.0.1:1",
+                 "--out", str(tmp_path / "s.nc")])
+    wall = time.perf_counter() - t0
+    assert code == 2
+    line = _one_line(capsys, "bsrflow sweep: error: --scheduler tcp://127.0.0.1:1: cannot connect")
+    assert "127.0.0.1:1" in line and wall < sweep.SCHEDULER_TIMEOUT + 3
+    assert not (tmp_path / "s.nc").exists()
+
+
+@pytest.mark.parametrize("values, bad", [("-1,50", "a_over_d=-1"), ("0.5,1,50", "a_over_d=50")])
+def test_sweep_checks_every_case_before_starting_a_cluster(tmp_path, capsys, monkeypatch, values, bad):
+    import dask.distributed
+
+    import bsrflow.tools.sweep as sweep
+
+    monkeypatch.setattr(sweep, "run_sweep", _fail)
+    monkeypatch.setattr(dask.distributed, "LocalCluster", _fail)
+    monkeypatch.setattr(dask.distributed, "Client", _fail)
+    assert main(["sweep", "--param", f"a_over_d={values}", "--param", "f=10,20",
+                 "--out", str(tmp_path / "s.nc")]) == 2
+    line = _one_line(capsys, f"bsrflow sweep: error: --param: the case {bad}, f=10 is invalid: tap.a_over_d: ")
+    assert "valid range [0, 20]" in line
+    assert not (tmp_path / "s.nc").exists()
+
+
+# -- plot ------------------------------------------------------------------------------------------
+def _file(path, rho_nan=False, status="ok"):
+    from bsrflow.io.netcdf import NetCDFWriter
+
+    x = (np.arange(20) + 0.5) * 0.01
+    w = NetCDFWriter(path, x, 0.01, 2, lambda t: 0.0, {"config": "", "diameter": 0.022}, expected_snapshots=5)
+    for k in range(5):
+        rho = np.full(20, np.nan) if rho_nan else np.linspace(1.0, 0.0, 20)
+        w(0.01 * k, np.zeros(20), rho, np.array([0.01, 0.02 + 0.001 * k]))
+    if status == "running":                     # as a killed run leaves it: never closed
+        w._h5.close()
+    else:
+        w.close(status)
+    return path
+
+
+@pytest.mark.parametrize("rho_nan, status, warnings", [
+    (False, "ok", []),
+    (False, "running", ['status "running": the run was killed (or is still going); the figures show the '
+                        '5 snapshot(s) up to t = 0.04 s']),
+    (False, "interrupted by SIGTERM after 5 snapshots", ["the run did not finish (status: interrupted by "
+                                                          "SIGTERM after 5 snapshots); the figures show"]),
+    (True, "ok", ["rho is NaN in every snapshot: the density figure is empty"]),
+])
+def test_plot_warns_about_a_killed_or_all_nan_file_and_still_draws(tmp_path, capsys, rho_nan, status, warnings):
+    path = _file(tmp_path / "r.nc", rho_nan, status)
+    assert main(["plot", str(path), "--out", str(tmp_path / "figs")]) == 0
+    err = [ln for ln in capsys.readouterr().err.strip().splitlines() if ln]
+    assert len(err) == len(warnings), err
+    for line, w in zip(err, warnings):
+        assert line.startswith(f"bsrflow plot: warning: {path}: ") and w in line, line
+    assert len(list((tmp_path / "figs").glob("r_*.png"))) == 4          # drawn all the same
+
+
+# -- initial_density ---------------------------------------------------------------------------------
+def _loop_density(setup, x):
+    """The former formula: every sphere's bump evaluated on every cell (cost spheres x cells)."""
+    d, m = setup.diameter, setup.particle_mass
+    rho = np.zeros_like(x, dtype=float)
+    for yk in setup.sphere_centres():
+        for centre in (yk, -yk):
+            s = (x - centre) / d
+            rho += np.where(np.abs(s) < 1.0, m / d * np.cos(0.5 * np.pi * s) ** 2, 0.0)
+    return rho
+
+
+@pytest.mark.parametrize("n, ppd, kw", [(2, 2, {}), (3, 4, {}), (20, 10, {}), (7, 13, {"diameter": 0.01}),
+                                        (50, 3, {"m0": 400.0}), (200, 10, {"m0": 406.0})])
+def test_initial_density_equals_the_loop_bit_for_bit(n, ppd, kw):
+    from bsrflow.physics.column import ColumnSetup, initial_density
+
+    s = ColumnSetup(n_spheres=n, points_per_diameter=ppd, **kw)
+    x = s.grid().x
+    assert np.array_equal(initial_density(s, x), _loop_density(s, x))
+    xs = x[::-1].copy()                                  # not increasing: the loop itself
+    assert np.array_equal(initial_density(s, xs), _loop_density(s, xs))
+    assert initial_density(s, x).sum() * (x[1] - x[0]) == pytest.approx(n * s.particle_mass, rel=1e-12)
+
+
+def test_initial_density_is_linear_in_spheres_plus_cells():
+    """100000 spheres on a million cells: under a few seconds (the loop needed 2e11 cell
+    updates, minutes to hours)."""
+    from bsrflow.physics.column import ColumnSetup, initial_density
+
+    s = ColumnSetup(n_spheres=100000, m0=406.0)
+    x = s.grid().x
+    assert x.size > 1_000_000
+    t0 = time.perf_counter()
+    rho = initial_density(s, x)
+    assert time.perf_counter() - t0 < 10.0
+    line = s.particle_mass / s.diameter
+    inside = (x > s.diameter) & (x < (s.n_spheres - 1) * s.diameter)
+    # the bumps sum to m/d inside; (x - c)/d loses digits at heights of 1e5 d (the ulp of x = 2200 m
+    # is 4.5e-13 m, 2e-11 d): relative round-off up to 3e-11 there, 1e-16 near the floor
+    np.testing.assert_allclose(rho[inside], line, rtol=1e-10)
+    low = inside & (x < 100 * s.diameter)
+    np.testing.assert_allclose(rho[low], line, rtol=1e-13)
+    assert np.all(rho[x > (s.n_spheres + 0.5) * s.diameter + 1e-9] == 0.0)     # above the top bump

@@ -1,0 +1,163 @@
+"""Every output option of every command: an unwritable place, the wrong kind of path (a
+directory where a file is expected, a file where a directory is expected, a path through a
+file) and a missing parent folder give one line naming the option, exit code 2, and nothing is
+computed first (the functions that do the work are replaced by ones that fail the test).
+
+"Unwritable" must fail for root too (the tests may run as root, who may write in a chmod-ed
+folder): ``/proc`` takes no new files."""
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from bsrflow.cli import build_parser, main
+from bsrflow.io.paths import OutputPathError, check_output_dir, check_output_file
+
+pytestmark = pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux /proc")
+
+# (command argv before the output option, option, kind of output)
+OUTPUTS = [
+    (["init"], None, "file"),                         # positional PATH
+    (["run", "{cfg}", "--out"], "--out", "file"),
+    (["plot", "{nc}", "--out"], "--out", "dir"),
+    (["demo", "--out"], "--out", "dir"),
+    (["verify", "--json"], "--json", "file"),
+    (["stability", "--json"], "--json", "file"),
+    (["stability", "--figures"], "--figures", "dir"),
+    (["energy", "--json"], "--json", "file"),
+    (["energy", "--figures"], "--figures", "dir"),
+    (["compare", "--json"], "--json", "file"),
+    (["compare", "--figures"], "--figures", "dir"),
+    (["compare-dump", "{dump}", "--dt", "1e-5", "--json"], "--json", "file"),
+    (["compare-dump", "{dump}", "--dt", "1e-5", "--figures"], "--figures", "dir"),
+    (["sweep", "--param", "a_over_d=0.5,1", "--out"], "--out", "file"),
+    (["sweep", "--param", "a_over_d=0.5,1", "--figure"], "--figure", "file"),
+]
+BAD = ["unwritable", "wrong_kind", "through_a_file", "missing_parent"]
+
+
+def _bad_path(kind, bad, tmp):
+    if bad == "unwritable":
+        return "/proc/bsrflow-test-output" + (".json" if kind == "file" else "")
+    if bad == "wrong_kind":                            # a directory for a file, a file for a directory
+        return str(tmp / ("a_dir" if kind == "file" else "a_file"))
+    if bad == "through_a_file":
+        return str(tmp / "a_file" / "out")
+    return str(tmp / "no_such_folder" / "out")
+
+
+@pytest.fixture
+def no_work(monkeypatch):
+    """Replace everything that computes, reads inputs or starts a cluster by a test failure."""
+    import bsrflow.analysis.compare as compare
+    import bsrflow.analysis.energy as energy
+    import bsrflow.analysis.stability as stability
+    import bsrflow.analysis.verify as verify
+    import bsrflow.io.commands as commands
+    import bsrflow.io.lammps as lammps
+    import bsrflow.io.runner as runner
+    import bsrflow.physics.column as column
+    import bsrflow.tools.plot_file as plot_file
+    import bsrflow.tools.sweep as sweep
+    from bsrflow.numerics.solver import Simulation
+
+    def fail(*a, **k):
+        raise AssertionError("work started before the output path was checked")
+
+    for mod, name in [(verify, "run_cases"), (stability, "cfl_table"), (energy, "energy_study"),
+                      (compare, "compare"), (lammps, "read_dump"), (column, "run_bsr_column"),
+                      (runner, "column_simulation"), (runner, "initial_density"), (plot_file, "plot_file"),
+                      (plot_file, "load_output"), (sweep, "run_sweep"), (sweep, "parse_params"),
+                      (commands, "default_config_text"), (Simulation, "run"), (Simulation, "advance")]:
+        monkeypatch.setattr(mod, name, fail)
+
+
+@pytest.mark.parametrize("bad", BAD)
+@pytest.mark.parametrize("argv, option, kind", OUTPUTS, ids=[" ".join(o[0][:1] + [o[1] or "PATH"]) for o in OUTPUTS])
+def test_bad_output_path_one_line_exit_2_before_any_work(tmp_path, capsys, no_work, argv, option, kind, bad):
+    (tmp_path / "a_dir").mkdir()
+    (tmp_path / "a_file").write_text("x")
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[run]\nt_end = 0.1\n")
+    nc = tmp_path / "r.nc"
+    nc.write_bytes(b"not read before the check")
+    dump = tmp_path / "d.dump"
+    dump.write_text("not read before the check")
+    path = _bad_path(kind, bad, tmp_path)
+    args = [a.format(cfg=cfg, nc=nc, dump=dump) for a in argv] + [path]
+    t0 = time.perf_counter()
+    code = main(args)
+    wall = time.perf_counter() - t0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2, err
+    assert len(err) == 1, err
+    assert err[0].startswith(f"bsrflow {argv[0]}: error: {option or 'PATH'}: "), err[0]
+    problem = {"unwritable": "cannot write in the directory /proc",
+               "wrong_kind": "is a directory; give a file name" if kind == "file" else "is a file; give a directory",
+               "through_a_file": "a_file is a file, not a directory",
+               "missing_parent": "no_such_folder does not exist"}[bad]
+    assert problem in err[0], err[0]
+    assert wall < 5.0                                    # a check, not a computation
+    assert not (tmp_path / "no_such_folder").exists()   # missing folders are never created
+    assert sorted(os.listdir(tmp_path)) == ["a_dir", "a_file", "c.toml", "d.dump", "r.nc"]
+    assert os.listdir(tmp_path / "a_dir") == []
+
+
+def test_every_output_option_of_every_command_is_covered():
+    """The list above names every option of `bsrflow --help` that writes something."""
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command")
+    writers = {"--out", "--json", "--figures", "--figure"}
+    found = set()
+    for name, p in sub.choices.items():
+        for a in p._actions:
+            for opt in a.option_strings:
+                if opt in writers:
+                    found.add((name, opt))
+    found.add(("init", None))
+    assert found == {(argv[0], option) for argv, option, _ in OUTPUTS}
+
+
+def test_the_check_itself(tmp_path):
+    (tmp_path / "f").write_text("x")
+    assert check_output_file(tmp_path / "new.json", "--json") == str(tmp_path / "new.json")
+    assert check_output_file(tmp_path / "f", "--json") == str(tmp_path / "f")      # replaced later
+    assert check_output_dir(tmp_path / "figs", "--figures") == str(tmp_path / "figs")
+    assert not (tmp_path / "figs").exists()
+    check_output_dir(tmp_path / "figs", "--figures", create=True)
+    assert (tmp_path / "figs").is_dir() and os.listdir(tmp_path / "figs") == []
+    with pytest.raises(OutputPathError, match=r"^--out: /dev/null exists and is not a regular file"):
+        check_output_file("/dev/null", "--out")
+    with pytest.raises(OutputPathError, match="cannot write in the directory /proc"):
+        check_output_dir("/proc/x", "--figures")
+    assert sorted(os.listdir(tmp_path)) == ["f", "figs"]                    # no probe left behind
+
+
+def test_run_out_on_an_unwritable_place_in_a_subprocess(tmp_path):
+    """The real command line (no traceback from h5py): one line, exit 2."""
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[run]\nt_end = 0.1\n")
+    p = subprocess.run([sys.executable, "-m", "bsrflow.cli", "run", str(cfg), "--out", "/proc/bsrflow-x.nc"],
+                       capture_output=True, text=True, timeout=120)
+    lines = p.stderr.strip().splitlines()
+    assert p.returncode == 2 and len(lines) == 1, p.stderr
+    assert lines[0].startswith("bsrflow run: error: --out: cannot write in the directory /proc"), lines
+
+
+def test_sweep_no_longer_creates_a_missing_folder(tmp_path, capsys):
+    """The rule is the same as `run`'s: the folder holding an output must exist."""
+    out = tmp_path / "new" / "s.nc"
+    assert main(["sweep", "--param", "a_over_d=0.5,1", "--out", str(out)]) == 2
+    assert "--out: directory" in capsys.readouterr().err and not out.parent.exists()
+
+
+def test_demo_refuses_a_file_in_place_of_its_figures_folder(tmp_path, capsys, no_work):
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "figures").write_text("x")
+    assert main(["demo", "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--out: " in err[0] and "figures is a file" in err[0], err
+    np.testing.assert_equal(sorted(os.listdir(tmp_path / "out")), ["figures"])
