@@ -96,6 +96,29 @@ def _differences(m, dem_m):
     }
 
 
+def _run_against_dem(name, s, dem, dem_m, dem_wall):
+    """Run the packing continuum of setup ``s`` and compare it with the DEM run ``dem``
+    (t, positions, floor) whose metrics are ``dem_m``; returns (ColumnRun, JSON entry)."""
+    t_d, pos, _ = dem
+    d = s.diameter
+    w = time.perf_counter()
+    run = run_bsr_column(s)
+    wall = time.perf_counter() - w
+    m = _metrics(run.t, run.top, run.mass_centre, s)
+    rms = float(np.sqrt(np.mean(((np.interp(t_d, run.t, run.mass_centre) - pos.mean(axis=1)) / d) ** 2)))
+    entry = {
+        "name": name, "formulation": s.formulation, "d": d, "a_over_d": s.a_over_d, "taps": s.n_taps,
+        "tap_period": s.tap_period, "t_end": s.t_end, "points_per_diameter": s.points_per_diameter,
+        "stiffness_factor": s.stiffness_factor, "calibrated_on": False,
+        "bsr": m | {"wall_s": wall, "steps": run.steps,
+                    "mass_drift": float(np.max(np.abs(run.mass - run.mass[0])) / run.mass[0]),
+                    "min_density": float(run.rho.min())},
+        "dem": dem_m | {"wall_s": dem_wall},
+        "mass_centre_rms_over_d": rms,
+    } | _differences(m, dem_m)
+    return run, entry
+
+
 def compare_packing(base: ColumnSetup | None = None, cases=None, formulations=("eulerian", "lagrangian"),
                     figures=None, log=print, auto_stiffness=False):
     """Run the comparison; returns the JSON-ready dict (module docstring).  ``auto_stiffness``:
@@ -113,36 +136,18 @@ def compare_packing(base: ColumnSetup | None = None, cases=None, formulations=("
         if auto_stiffness:
             s0 = s0.with_(stiffness_factor=suggest_stiffness_factor(s0))
         dem_wall = time.perf_counter() - w
-        t_d, pos, floor = dem
-        d = s0.diameter
-        dem_m = _metrics(t_d, pos[:, -1], pos.mean(axis=1), s0)
+        dem_m = _metrics(dem[0], dem[1][:, -1], dem[1].mean(axis=1), s0)
         runs = {}
         for form in formulations:
-            s = s0.with_(formulation=form)
-            w = time.perf_counter()
-            run = run_bsr_column(s)
-            wall = time.perf_counter() - w
+            run, entry = _run_against_dem(c["name"], s0.with_(formulation=form), dem, dem_m, dem_wall)
             runs[form] = run
-            m = _metrics(run.t, run.top, run.mass_centre, s)
-            rms = float(np.sqrt(np.mean(((np.interp(t_d, run.t, run.mass_centre) - pos.mean(axis=1)) / d) ** 2)))
-            diff = _differences(m, dem_m)
-            rise = diff["rise_rel_diff"]
-            entry = {
-                "name": c["name"], "formulation": form, "d": d, "a_over_d": s.a_over_d, "taps": s.n_taps,
-                "tap_period": s.tap_period, "t_end": s.t_end, "points_per_diameter": s.points_per_diameter,
-                "stiffness_factor": s.stiffness_factor, "calibrated_on": False,
-                "bsr": m | {"wall_s": wall, "steps": run.steps,
-                            "mass_drift": float(np.max(np.abs(run.mass - run.mass[0])) / run.mass[0]),
-                            "min_density": float(run.rho.min())},
-                "dem": dem_m | {"wall_s": dem_wall},
-                "mass_centre_rms_over_d": rms,
-            } | diff
             out_cases.append(entry)
             if log:
-                log(f"  {c['name']:22s} {form:10s}: top {m['top_max_over_d']:.2f} d at {m['t_top_max']:.3f} s | DEM "
-                    f"{dem_m['top_max_over_d']:.2f} d at {dem_m['t_top_max']:.3f} s | dtop "
-                    f"{100 * entry['top_max_rel_diff']:+.1f}% rise {100 * rise:+.1f}% | mc RMS {rms:.3f} d | "
-                    f"{wall:.1f} s, DEM {dem_wall:.1f} s")
+                log(f"  {c['name']:22s} {form:10s}: top {entry['bsr']['top_max_over_d']:.2f} d at "
+                    f"{entry['bsr']['t_top_max']:.3f} s | DEM {dem_m['top_max_over_d']:.2f} d at "
+                    f"{dem_m['t_top_max']:.3f} s | dtop {100 * entry['top_max_rel_diff']:+.1f}% rise "
+                    f"{100 * entry['rise_rel_diff']:+.1f}% | mc RMS {entry['mass_centre_rms_over_d']:.3f} d | "
+                    f"{entry['bsr']['wall_s']:.1f} s, DEM {dem_wall:.1f} s")
         fig_runs[c["name"]] = (s0, runs, dem)
     result = {"d": base.diameter, "scheme": "packing", "kernel": "packing", "calibration": None,
               "fitted_constants": {}, "cases": out_cases, "setup": base.with_(kernel_name="packing").to_dict(),
@@ -180,29 +185,20 @@ def demo_packing(seed_result: dict, base: ColumnSetup, figures=None, formulation
     for c in CASES:
         s0 = base.with_(a_over_d=c["a_over_d"], n_taps=c["n_taps"], t_end=c["t_end"])
         seed_run = run_bsr_column(s0.with_(m0=cal["m0"], kernel_dissipation=cal["kernel_dissipation"]))
+        w = time.perf_counter()
         dem = run_dem_column(s0)
-        t_d, pos, _ = dem
-        d = s0.diameter
-        dem_m = _metrics(t_d, pos[:, -1], pos.mean(axis=1), s0)
+        dem_wall = time.perf_counter() - w
+        dem_m = _metrics(dem[0], dem[1][:, -1], dem[1].mean(axis=1), s0)
         runs = {}
         for form in formulations:
-            s = s0.with_(kernel_name="packing", formulation=form)
-            w = time.perf_counter()
-            run = run_bsr_column(s)
-            wall = time.perf_counter() - w
+            run, entry = _run_against_dem(c["name"], s0.with_(kernel_name="packing", formulation=form), dem, dem_m,
+                                          dem_wall)
             runs[form] = run
-            m = _metrics(run.t, run.top, run.mass_centre, s)
-            rms = float(np.sqrt(np.mean(((np.interp(t_d, run.t, run.mass_centre) - pos.mean(axis=1)) / d) ** 2)))
-            diff = _differences(m, dem_m)
-            entries.append({"name": c["name"], "formulation": form, "d": d, "a_over_d": s.a_over_d, "taps": s.n_taps,
-                            "calibrated_on": False, "points_per_diameter": s.points_per_diameter,
-                            "bsr": m | {"wall_s": wall, "steps": run.steps,
-                                        "mass_drift": float(np.max(np.abs(run.mass - run.mass[0])) / run.mass[0]),
-                                        "min_density": float(run.rho.min())},
-                            "dem": dem_m, "mass_centre_rms_over_d": rms} | diff)
+            entries.append(entry)
             if log:
-                log(f"  packing {form:10s} {c['name']}: top {m['top_max_over_d']:.2f} d at {m['t_top_max']:.3f} s, "
-                    f"mc RMS {rms:.3f} d, {wall:.1f} s")
+                log(f"  packing {form:10s} {c['name']}: top {entry['bsr']['top_max_over_d']:.2f} d at "
+                    f"{entry['bsr']['t_top_max']:.3f} s, mc RMS {entry['mass_centre_rms_over_d']:.3f} d, "
+                    f"{entry['bsr']['wall_s']:.1f} s")
         if figures:
             from .. import plots
             plots.packing_case_figures(c["name"], s0, runs, dem, figures, seed_run=seed_run)
@@ -215,12 +211,12 @@ def demo_packing(seed_result: dict, base: ColumnSetup, figures=None, formulation
 
 def format_demo_table(result) -> str:
     """One table: the seed kernel (calibrated) and the packing continuum (nothing fitted)."""
-    lines = [f"{'case':18s} {'model':28s} {'top/d':>7s} {'t [s]':>6s} {'DEM top/d':>9s} {'t [s]':>6s} "
+    lines = [f"{'case':18s} {'model':32s} {'top/d':>7s} {'t [s]':>6s} {'DEM top/d':>9s} {'t [s]':>6s} "
              f"{'dtop':>7s} {'dt':>7s} {'mc RMS/d':>8s}"]
     rows = [(c, "seed kernel (m0, eps fitted)") for c in result["cases"]]
     rows += [(c, f"packing {c['formulation']} (none fitted)") for c in result.get("packing", [])]
     for c, model in sorted(rows, key=lambda r: r[0]["name"]):
-        lines.append(f"{c['name']:18s} {model:28s} {c['bsr']['top_max_over_d']:7.2f} {c['bsr']['t_top_max']:6.3f} "
+        lines.append(f"{c['name']:18s} {model:32s} {c['bsr']['top_max_over_d']:7.2f} {c['bsr']['t_top_max']:6.3f} "
                      f"{c['dem']['top_max_over_d']:9.2f} {c['dem']['t_top_max']:6.3f} "
                      f"{100 * c['top_max_rel_diff']:6.1f}% {100 * c['t_top_max_rel_diff']:6.1f}% "
                      f"{c['mass_centre_rms_over_d']:8.3f}")

@@ -149,28 +149,10 @@ def run_config(config: Config, out, *, resume: bool = False, progress=None, log=
         if not os.path.exists(out):
             raise ConfigError("--resume", f"the checkpoint {ckpt_file} exists but the output {out} does not; "
                               "run without --resume to start over")
-        try:
-            ck = read_checkpoint(ckpt_file)
-            old = Config.from_dict(tomllib.loads(ck.config))
-        except (ValueError, tomllib.TOMLDecodeError) as exc:
-            raise ConfigError("--resume", f"cannot read the checkpoint: {exc}") from None
-        diff = _config_difference(config, old)
-        if diff:
-            raise ConfigError("--resume", f"the config differs from the checkpoint's in {diff}; resume with "
-                              "the same config or run without --resume to start over")
+        ck = _read_matching_checkpoint(config, ckpt_file)
         if ck.u.shape != (grid.n_cells,) or ck.tracers.shape != (n_tr,):
             raise ConfigError("--resume", f"the checkpoint's state does not match the grid of the config")
-        expected = save_times[save_times < ck.t]
-        try:
-            writer = NetCDFWriter.resume(out, ck.t, grid.x, grid.dx, n_tr, floor,
-                                         expected_snapshots=save_times.size)
-        except Exception as exc:                       # unreadable or foreign file
-            raise ConfigError("--resume", f"cannot reopen {out}: {type(exc).__name__}: {exc}") from None
-        kept = writer.series("time")
-        if kept.size != expected.size or not np.array_equal(kept, expected):
-            writer.close("resume failed: snapshots missing before the checkpoint")
-            raise ConfigError("--resume", f"{out} holds {kept.size} snapshots before the checkpoint time "
-                              f"t = {ck.t:.6g} s, expected {expected.size}; run without --resume to start over")
+        writer, kept = _reopen_output(out, ck.t, grid, n_tr, floor, save_times)
         u0, rho0, tr0, t0 = ck.u, ck.rho, ck.tracers, ck.t
         steps0, rejected0, wall0 = ck.steps, ck.rejected_steps, ck.wall_time
         log(f"resuming from the checkpoint at t = {t0:.6g} s ({kept.size} snapshots kept in {out})")
@@ -230,6 +212,36 @@ def run_config(config: Config, out, *, resume: bool = False, progress=None, log=
                       rejected_steps=rejected, adaptive=sim.scheme.rtol is not None)
 
 
+def _read_matching_checkpoint(config: Config, ckpt_file) -> Checkpoint:
+    """The checkpoint of a resume, refused (one line) unless it was written by this config."""
+    try:
+        ck = read_checkpoint(ckpt_file)
+        old = Config.from_dict(tomllib.loads(ck.config))
+    except (ValueError, tomllib.TOMLDecodeError) as exc:
+        raise ConfigError("--resume", f"cannot read the checkpoint: {exc}") from None
+    diff = _config_difference(config, old)
+    if diff:
+        raise ConfigError("--resume", f"the config differs from the checkpoint's in {diff}; resume with "
+                          "the same config or run without --resume to start over")
+    return ck
+
+
+def _reopen_output(out, t_ck, grid, n_tr, floor, save_times):
+    """Reopen the output of a resumed run, keeping its snapshots before the checkpoint time
+    ``t_ck``; refused (one line) when they are not exactly the expected ones."""
+    expected = save_times[save_times < t_ck]
+    try:
+        writer = NetCDFWriter.resume(out, t_ck, grid.x, grid.dx, n_tr, floor, expected_snapshots=save_times.size)
+    except Exception as exc:                       # unreadable or foreign file
+        raise ConfigError("--resume", f"cannot reopen {out}: {type(exc).__name__}: {exc}") from None
+    kept = writer.series("time")
+    if kept.size != expected.size or not np.array_equal(kept, expected):
+        writer.close("resume failed: snapshots missing before the checkpoint")
+        raise ConfigError("--resume", f"{out} holds {kept.size} snapshots before the checkpoint time "
+                          f"t = {t_ck:.6g} s, expected {expected.size}; run without --resume to start over")
+    return writer, kept
+
+
 def _interrupted(exc, writer, out, resume, config, last_ckpt_t, ckpt_file, ckpt_times, t0):
     """Close the file of an interrupted run (Ctrl-C or SIGTERM) with status "interrupted ..." and
     give ``exc`` one line saying what was kept and whether ``--resume`` can continue."""
@@ -279,28 +291,14 @@ def _run_packing_config(config: Config, out, *, resume=False, progress=None, log
         if not os.path.exists(out):
             raise ConfigError("--resume", f"the checkpoint {ckpt_file} exists but the output {out} does not; "
                               "run without --resume to start over")
-        try:
-            ck = read_checkpoint(ckpt_file)
-            old = Config.from_dict(tomllib.loads(ck.config))
-        except (ValueError, tomllib.TOMLDecodeError) as exc:
-            raise ConfigError("--resume", f"cannot read the checkpoint: {exc}") from None
-        diff = _config_difference(config, old)
-        if diff:
-            raise ConfigError("--resume", f"the config differs from the checkpoint's in {diff}; resume with "
-                              "the same config or run without --resume to start over")
+        ck = _read_matching_checkpoint(config, ckpt_file)
         try:
             disc.load_fields(ck.fields or {})
         except (KeyError, ValueError) as exc:
             raise ConfigError("--resume", f"the checkpoint's state does not match the config: {exc}") from None
         disc.counters[0] = ck.steps
         disc.steps = ck.steps
-        writer = NetCDFWriter.resume(out, ck.t, grid.x, grid.dx, n_tr, floor, expected_snapshots=save_times.size)
-        expected = save_times[save_times < ck.t]
-        kept = writer.series("time")
-        if kept.size != expected.size or not np.array_equal(kept, expected):
-            writer.close("resume failed: snapshots missing before the checkpoint")
-            raise ConfigError("--resume", f"{out} holds {kept.size} snapshots before the checkpoint time "
-                              f"t = {ck.t:.6g} s, expected {expected.size}; run without --resume to start over")
+        writer, kept = _reopen_output(out, ck.t, grid, n_tr, floor, save_times)
         t0, steps0, wall0 = ck.t, ck.steps, ck.wall_time
         log(f"resuming from the checkpoint at t = {t0:.6g} s ({kept.size} snapshots kept in {out})")
     else:
