@@ -165,3 +165,19 @@ def test_run_output_and_restart_bit_for_bit(tmp_path, form):
     for k in ("rho", "u", "tracer_height", "mass_centre", "top", "kinetic_energy"):
         assert np.array_equal(a[k].values, b[k].values), k
     assert int(a.attrs["steps"]) == int(b.attrs["steps"])
+
+
+def test_sweep_and_compare_dump_take_packing_configs():
+    """The setups of `bsrflow sweep` and `compare-dump` come from SetupSource: a packing config gives
+    no seed scheme, and a sweep case runs (the packing's schemes are its formulation's)."""
+    from bsrflow.tools.setup_source import SetupSource
+    from bsrflow.tools.sweep import run_case
+    src = SetupSource.load().with_fixed({"model.kernel": "packing", "numerics.formulation": "lagrangian",
+                                         "column.n_spheres": 4, "numerics.points_per_diameter": 3,
+                                         "tap.start": 0.05, "run.t_end": 0.2})
+    setup, scheme = src.setup_and_scheme({"tap.a_over_d": 0.5})
+    assert setup.kernel_name == "packing" and scheme is None
+    r = run_case({"tap.a_over_d": 0.5}, src)
+    assert r["status"] == "ok", r
+    seed_setup, seed_scheme = SetupSource.load().setup_and_scheme({})
+    assert seed_setup.kernel_name == "seed" and seed_scheme is not None

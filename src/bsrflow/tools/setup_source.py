@@ -215,8 +215,10 @@ class SetupSource:
         ov = self._overrides(self.fixed | dict(overrides or {}))
         if self.config is not None:
             cfg = self.config.with_overrides(ov)
-            scheme = cfg.scheme() if callable(getattr(cfg, "scheme", None)) else None
-            return cfg.column_setup(), scheme
+            setup = cfg.column_setup()
+            packing = getattr(setup, "kernel_name", "seed") == "packing"     # its schemes are the formulation's
+            scheme = cfg.scheme() if callable(getattr(cfg, "scheme", None)) and not packing else None
+            return setup, scheme
         unknown = [k for k in ov if k not in _FIELD_TYPES]
         if unknown:
             raise ValueError(f"unknown parameter {unknown[0]!r}")
