@@ -107,13 +107,20 @@ def test_config_fields_and_refusals():
     c = Config.default().with_overrides({"model.kernel": "packing", "numerics.formulation": "lagrangian"})
     s = c.column_setup()
     assert (s.kernel_name, s.formulation) == ("packing", "lagrangian")
+    auto = c.with_overrides({"model.stiffness_mach": 0.01}).column_setup()
+    assert auto.stiffness_factor == pytest.approx(suggest_stiffness_factor(s, 0.01))
+    with pytest.raises(ValueError, match="eulerian"):
+        ColumnSetup(kernel_name="packing", formulation="eulerian", stiffness_factor=0.5)
     for over, field in [({"model.kernel": "nope"}, "model.kernel"),
                         ({"numerics.formulation": "lagrangian"}, "numerics.formulation"),
                         ({"model.stiffness_factor": 0.5}, "model.stiffness_factor"),
                         ({"model.kernel": "packing", "numerics.scheme": "accurate"}, "numerics.scheme"),
                         ({"model.kernel": "packing", "numerics.stepper": "rk4"}, "numerics.stepper"),
                         ({"model.kernel": "packing", "numerics.cfl": 0.6}, "numerics.cfl"),
-                        ({"model.kernel": "packing", "model.stiffness_factor": 1.5}, "model.stiffness_factor")]:
+                        ({"model.kernel": "packing", "model.stiffness_factor": 1.5}, "model.stiffness_factor"),
+                        ({"model.kernel": "packing", "model.stiffness_factor": 0.5}, "model.stiffness_factor"),
+                        ({"model.kernel": "packing", "model.stiffness_mach": 0.01}, "model.stiffness_mach"),
+                        ({"model.stiffness_mach": 0.01}, "model.stiffness_mach")]:
         with pytest.raises(ConfigError) as exc:
             Config.default().with_overrides(over)
         assert str(exc.value).startswith(field), (over, str(exc.value))
@@ -130,6 +137,9 @@ def test_cli_unknown_kernel_and_formulation_exit_2(tmp_path, capsys):
     assert main(["compare", "--kernel", "packing", "--formulation", "upwind"]) == 2
     assert main(["compare", "--kernel", "packing", "--cases", "nosuch"]) == 2
     assert main(["compare", "--formulation", "eulerian"]) == 2       # a packing-only option
+    # the eulerian formulation refuses a reduced stiffness (its landing bounce grows with it)
+    assert main(["compare", "--kernel", "packing", "--stiffness-factor", "auto"]) == 2
+    assert "eulerian" in capsys.readouterr().err
     assert not (tmp_path / "x.nc").exists()
 
 

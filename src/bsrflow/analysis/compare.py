@@ -245,6 +245,9 @@ def _packing_main(args) -> int:
     if args.ppd is not None:
         kw["points_per_diameter"] = args.ppd
     auto = args.stiffness_factor == "auto"
+    if args.stiffness_factor is not None and "eulerian" in forms:
+        raise ValueError("--stiffness-factor: the eulerian formulation refuses a reduced stiffness (docs/model.md); "
+                         "add --formulation lagrangian")
     if args.stiffness_factor is not None and not auto:
         try:
             kw["stiffness_factor"] = float(args.stiffness_factor)

@@ -132,6 +132,10 @@ class ColumnSetup:
                              "(valid: eulerian; the lagrangian formulation is the packing kernel's)")
         if not (np.isfinite(self.stiffness_factor) and 0.0 < self.stiffness_factor <= 1.0):
             raise ValueError(f"stiffness_factor = {self.stiffness_factor!r} is outside the valid range (0, 1]")
+        if self.kernel_name == "packing" and self.formulation == "eulerian" and self.stiffness_factor != 1.0:
+            raise ValueError(f"stiffness_factor = {self.stiffness_factor!r} is not supported by the eulerian "
+                             "formulation (valid: 1): its landed column bounces, more so at a reduced stiffness "
+                             "(docs/model.md); use formulation = lagrangian for the reduced stiffness")
         if self.kernel_name == "seed" and self.stiffness_factor != 1.0:
             raise ValueError("stiffness_factor is an option of the packing kernel only (the seed kernel's "
                              "stiffness is set by m0)")
@@ -254,7 +258,8 @@ STIFFNESS_ERROR_BOUND = {"top_max_rel": 0.015, "mass_centre_rms_over_d": 0.25}
 """The documented cost of the reduced stiffness at impact Mach number ≤ 0.01: the top maximum within
 1.5 % and the mass-centre RMS within 0.25 d of the true stiffness's.  Measured on the 14 cases of
 the packing comparison (Lagrangian, 10 points per diameter) by ``python bench/packing_stiffness.py``:
-at most 1.07 % and 0.20 d at M = 0.01, 0.40 % and 0.048 d at M = 0.003 (docs/model.md, tested)."""
+at most 1.27 % and 0.20 d at M = 0.01, 0.40 % and 0.048 d at M = 0.003 (docs/model.md, tested).
+The Lagrangian formulation's: the Eulerian formulation refuses a reduced stiffness."""
 
 
 def impact_speed_bound(setup: ColumnSetup) -> float:
