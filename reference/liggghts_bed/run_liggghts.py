@@ -566,7 +566,7 @@ run {nsteps}
     (wd / "in.vibrate").write_text(deck)
     wall = run_liggghts(wd / "in.vibrate", wd, Path("log.vibrate"))
     meta = {"name": name, "gamma": gamma, "n": n, "lateral_d": lateral, "lx_m": lx,
-            "model": model, "friction": mu, "amplitude_m": amp, "dt_s": dt,
+            "model": model, "friction": mu, "restitution": E_REST, "K_N_m": K_N, "amplitude_m": amp, "dt_s": dt,
             "steps": nsteps, "steps_per_dump": ndump, "cycles_startup": cycles_startup,
             "cycles_measured": cycles_measured, "wall_time_s": wall, "cpu_time_s": LAST_CPU[0],
             "loop_time_s": loop_time(wd / "log.vibrate")}
@@ -597,6 +597,8 @@ def loop_time(log: Path) -> float | None:
 
 def run_name(gamma, n, lateral, model, mu) -> str:
     s = f"gamma_{gamma:.2f}_{tag(n, lateral)}"
+    if E_REST != 0.9:
+        s += f"_e{E_REST:g}"
     if model != "walton_braun":
         s += f"_{model}"
     if mu > 0:
@@ -760,6 +762,8 @@ def postprocess(name: str) -> dict:
         "flight_time_per_cycle_s": [float(v) for v in tau],
         "flight_time_mean_s": float(tau.mean()),
         "flight_time_mean_over_T": float(tau.mean() / PERIOD),
+        "flight_time_mean_last6_s": float(tau[-6:].mean()),
+        "flight_time_std_last6_s": float(tau[-6:].std()),
         "off_floor_time_per_cycle_s": [float(v) for v in offfrac[meas]],
         "com_rel_mean_over_d": float(tr[tm, 4].mean() / D),
         "com_rel_max_over_d": float(tr[tm, 4].max() / D),
@@ -796,7 +800,8 @@ def summary() -> None:
     for p in sorted(RESULTS.glob("gamma_*/summary.json")):
         s = json.loads(p.read_text())
         rows.append(s)
-    main = [s for s in rows if s["n"] == 2000 and s["model"] == "walton_braun" and s["friction"] == 0]
+    main = [s for s in rows if s["n"] == 2000 and s["model"] == "walton_braun" and s["friction"] == 0
+            and s.get("restitution", 0.9) == 0.9]
     main.sort(key=lambda s: s["gamma"])
     with open(HERE / "flight_vs_gamma.csv", "w") as f:
         f.write("# main runs (N=2000, Walton-Braun, frictionless); flight times of the measured cycles\n")
@@ -829,13 +834,13 @@ def summary() -> None:
     (HERE / "params.json").write_text(json.dumps(params, indent=2))
     print(json.dumps(pdg))
     # markdown table for the README
-    print("| run | Γ | flight time per measured cycle [ms] | mean [ms] | mean/T | even/odd split |"
+    print("| run | Γ | flight time per measured cycle [ms] | mean of last 6 [ms] | mean/T | even/odd split |"
           " com period-2 | flight period-2 | max overlap pair/floor [% d] | wall [s] | CPU [s] |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
-    for s in sorted(rows, key=lambda s: (s["n"], s["model"], s["friction"], s["gamma"])):
+    for s in sorted(rows, key=lambda s: (s["n"], s["model"], s["friction"], -s.get("restitution", 0.9), s["gamma"])):
         print(f"| {s['name']} | {s['gamma']:g} | "
               + " ".join(f"{1e3*v:.1f}" for v in s["flight_time_per_cycle_s"])
-              + f" | {1e3*s['flight_time_mean_s']:.1f} | {s['flight_time_mean_over_T']:.3f} | "
+              + f" | {1e3*s.get('flight_time_mean_last6_s', float('nan')):.1f} | {s['flight_time_mean_over_T']:.3f} | "
               f"{s.get('even_odd_split') or 0:.3f} | {'yes' if s.get('com_period2') else 'no'} | "
               f"{'yes' if s['period_doubled'] else 'no'} | "
               f"{100*s['max_overlap_pair_over_d']:.2f} / {100*s['max_overlap_floor_over_d']:.2f} | "
@@ -864,6 +869,7 @@ def write_params(extra: dict) -> None:
 
 
 def main(argv=None):
+    global E_REST
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--check", action="store_true", help="single-sphere / two-sphere contact checks")
     ap.add_argument("--settle", action="store_true", help="pour and settle the bed")
@@ -874,10 +880,13 @@ def main(argv=None):
     ap.add_argument("--model", choices=("walton_braun", "hooke"), default="walton_braun")
     ap.add_argument("--startup", type=int, default=CYCLES_STARTUP)
     ap.add_argument("--measured", type=int, default=CYCLES_MEASURED)
+    ap.add_argument("--restitution", type=float, default=E_REST,
+                    help="e for the vibration run (exploratory; the settled bed is the e=0.9 one)")
     ap.add_argument("--post", metavar="RUN", help="re-run the post-processing of work/RUN")
     ap.add_argument("--summary", action="store_true")
     ap.add_argument("--settle-post", action="store_true", help="redo the packing statistics")
     a = ap.parse_args(argv)
+    E_REST = a.restitution
     WORK.mkdir(exist_ok=True)
     RESULTS.mkdir(exist_ok=True)
     if a.check:
@@ -895,7 +904,8 @@ def main(argv=None):
         write_params({f"settled_{tag(a.n, a.lateral)}": res})
         print(json.dumps(res, indent=2))
     if a.gamma:
-        write_params({})
+        if E_REST == 0.9:
+            write_params({})
         for g in a.gamma:
             s = vibrate(g, a.n, a.lateral, a.model, a.friction, a.startup, a.measured)
             print(json.dumps({k: s[k] for k in ("name", "wall_time_s", "flight_time_per_cycle_s",
