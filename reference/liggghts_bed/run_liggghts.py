@@ -863,6 +863,14 @@ def write_params(extra: dict) -> None:
         "cg_kernel": "Gaussian, sigma = d/2, point volumes at sphere centres",
         "top_definition": "99th percentile of sphere-centre heights",
         "flight_definition": "1-ms moving average of the floor force < 0.1 M g for > 1 ms",
+        "N_main": 2000, "box_main_m": {"lx": 13 * D, "ly": 13 * D, "z": [-0.02, box_top(2000, 13 * D)]},
+        "N_wide": 10000, "box_wide_m": {"lx": 29 * D, "ly": 29 * D, "z": [-0.02, box_top(10000, 29 * D)]},
+        "boundary": "periodic x, y; floor mesh at z_floor = A sin(omega t); open top (fixed boundary at z = 0.5 m)",
+        "friction_main": 0.0,
+        "friction_run": {"mu": 0.5, "law": "hooke/stiffness + tangential history, k_t = 2K/7, viscoelastic "
+                         "dashpot for e (gamman_abs: sphere-sphere 2*sqrt(m/2*K)*(-ln e)/sqrt(pi^2+ln^2 e), "
+                         "sphere-floor with m), tangential_damping off, limitForce on",
+                         "control": "same law with mu = 0 (tangential no_history)"},
     })
     params.update(extra)
     p.write_text(json.dumps(params, indent=2))
