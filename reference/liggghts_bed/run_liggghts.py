@@ -200,7 +200,7 @@ def read_columns(path: Path) -> np.ndarray:
 
 def check_contacts(model: str) -> dict:
     """Single sphere on the floor and two-sphere head-on collision, no gravity."""
-    wd = WORK / f"check_{model}"
+    wd = WORK / (f"check_{model}" + ("" if E_REST == 0.9 else f"_e{E_REST:g}"))
     wd.mkdir(parents=True, exist_ok=True)
     lx = 13 * D
     write_floor_stl(wd / "floor.stl", lx)
@@ -630,6 +630,8 @@ def flights_from_force(t: np.ndarray, f: np.ndarray, weight: float):
                 j += 1
             if i > 0 and j < n and t[j] - t[i] >= FLIGHT_MIN_S:
                 out.append((float(t[i]), float(t[j])))
+            elif i > 0 and j == n and t[j - 1] - t[i] >= FLIGHT_MIN_S:
+                out.append((float(t[i]), float("nan")))   # still in flight at the end
             i = j
         else:
             i += 1
@@ -670,7 +672,7 @@ def postprocess(name: str) -> dict:
     per = np.zeros(ncyc)
     for r in rows:
         if 0 <= r[0] < ncyc:
-            per[r[0]] = max(per[r[0]], r[3])
+            per[r[0]] = np.nan if math.isnan(r[3]) else max(per[r[0]], r[3])
     # off-floor time inside each cycle window (robust to flights spanning cycles)
     dtp = t[1] - t[0]
     wsm = max(1, int(round(FLIGHT_SMOOTH_S / dtp)))
@@ -759,11 +761,11 @@ def postprocess(name: str) -> dict:
         "max_overlap_pair_over_d": float(np.nanmax(a[:, 4]) / D),
         "max_overlap_floor_over_d": float(np.nanmax(a[:, 5]) / D),
         "overlap_sampling_steps": FORCE_EVERY,
-        "flight_time_per_cycle_s": [float(v) for v in tau],
-        "flight_time_mean_s": float(tau.mean()),
-        "flight_time_mean_over_T": float(tau.mean() / PERIOD),
-        "flight_time_mean_last6_s": float(tau[-6:].mean()),
-        "flight_time_std_last6_s": float(tau[-6:].std()),
+        "flight_time_per_cycle_s": [None if math.isnan(v) else float(v) for v in tau],
+        "flight_time_mean_s": float(np.nanmean(tau)),
+        "flight_time_mean_over_T": float(np.nanmean(tau) / PERIOD),
+        "flight_time_mean_last6_s": float(np.nanmean(tau[-6:])),
+        "flight_time_std_last6_s": float(np.nanstd(tau[-6:])),
         "off_floor_time_per_cycle_s": [float(v) for v in offfrac[meas]],
         "com_rel_mean_over_d": float(tr[tm, 4].mean() / D),
         "com_rel_max_over_d": float(tr[tm, 4].max() / D),
@@ -780,6 +782,8 @@ def period_doubling_measure(tau: np.ndarray) -> dict:
     a = mean over n of |tau_{n+1} - tau_n| / mean(tau); doubled when the even/odd
     cycle means differ by more than 10 % of the mean flight time and successive
     differences alternate in sign in at least 80 % of the cases."""
+    tau = np.asarray(tau, dtype=float)
+    tau = tau[~np.isnan(tau)]   # a flight still running at the end of the run
     if len(tau) < 4 or tau.mean() <= 0:
         return {"alternation": None, "period_doubled": False}
     d = np.diff(tau)
@@ -819,7 +823,7 @@ def gap_flight(out: Path) -> dict:
     g["gap_flight_even_odd_split_last6"] = pdm.get("even_odd_split")
     # the force-based period-doubling test on the last 6 measured cycles only (the
     # start-up transient of the strongest shaking lasts into the first measured cycles)
-    p6 = period_doubling_measure(np.array(s["flight_time_per_cycle_s"][-6:]))
+    p6 = period_doubling_measure(np.array(s["flight_time_per_cycle_s"][-6:], dtype=float))
     g.update({k + "_last6": v for k, v in p6.items()})
     s.update(g)
     (out / "summary.json").write_text(json.dumps(s, indent=2))
@@ -851,7 +855,7 @@ def summary() -> None:
                     f"{s['flight_time_mean_last6_s']:.5f},{s['gap_flight_time_mean_last6_s']:.5f},"
                     f"{max(s['max_overlap_pair_over_d'], s['max_overlap_floor_over_d']):.5f},"
                     f"{s['wall_time_s']:.1f},{s.get('cpu_time_s', float('nan')):.1f},"
-                    + " ".join(f"{v:.4f}" for v in s["flight_time_per_cycle_s"]) + "\n")
+                    + " ".join("nan" if v is None else f"{v:.4f}" for v in s["flight_time_per_cycle_s"]) + "\n")
     pd_g = [s["gamma"] for s in main if s["period_doubled_last6"]]
     below = [s["gamma"] for s in main if not s["period_doubled_last6"] and (not pd_g or s["gamma"] < min(pd_g))]
     pdg = None
@@ -877,7 +881,7 @@ def summary() -> None:
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for s in sorted(rows, key=lambda s: (s["n"], s["model"], s["friction"], -s.get("restitution", 0.9), s["gamma"])):
         print(f"| {s['name']} | {s['gamma']:g} | "
-              + " ".join(f"{1e3*v:.1f}" for v in s["flight_time_per_cycle_s"])
+              + " ".join("(in flight at end)" if v is None else f"{1e3*v:.1f}" for v in s["flight_time_per_cycle_s"])
               + f" | {1e3*s.get('flight_time_mean_last6_s', float('nan')):.1f} | {s['flight_time_mean_over_T']:.3f} | "
               f"{s.get('even_odd_split_last6') or 0:.3f} | {'yes' if s.get('com_period2') else 'no'} | "
               f"{'yes' if s['period_doubled_last6'] else 'no'} | "
@@ -938,7 +942,8 @@ def main(argv=None):
     RESULTS.mkdir(exist_ok=True)
     if a.check:
         res = {m: check_contacts(m) for m in ("walton_braun", "hooke")}
-        (HERE / "contact_check.json").write_text(json.dumps(res, indent=2))
+        name = "contact_check.json" if E_REST == 0.9 else f"contact_check_e{E_REST:g}.json"
+        (HERE / name).write_text(json.dumps(res, indent=2))
         print(json.dumps(res, indent=2))
     if a.settle:
         res = settle(a.n, a.lateral, "walton_braun")
