@@ -7,7 +7,9 @@ reduces its output into small CSV/JSON files next to this script:
   python reference/liggghts_bed/run_liggghts.py --check            # contact-law checks
   python reference/liggghts_bed/run_liggghts.py --settle           # pour + settle, N=2000
   python reference/liggghts_bed/run_liggghts.py --gamma 3          # vibrate the settled bed
-  python reference/liggghts_bed/run_liggghts.py --gamma 3 --friction 0.5
+  python reference/liggghts_bed/run_liggghts.py --gamma 3 --model hooke --friction 0.5
+  python reference/liggghts_bed/run_liggghts.py --gamma 3 --model hooke            # its control
+  python reference/liggghts_bed/run_liggghts.py --gamma 4 --restitution 0.5       # exploratory
   python reference/liggghts_bed/run_liggghts.py --settle --n 10000 --lateral 29
   python reference/liggghts_bed/run_liggghts.py --gamma 3 --n 10000 --lateral 29
   python reference/liggghts_bed/run_liggghts.py --summary          # flight_vs_gamma.csv
@@ -960,11 +962,11 @@ def main(argv=None):
             write_params({})
         for g in a.gamma:
             s = vibrate(g, a.n, a.lateral, a.model, a.friction, a.startup, a.measured)
-            print(json.dumps({k: s[k] for k in ("name", "wall_time_s", "flight_time_per_cycle_s",
-                                                "flight_time_mean_last6_s", "gap_flight_time_mean_last6_s",
-                                         "period_doubled", "period_doubled_last6", "com_period2",
-                                         "max_overlap_pair_over_d",
-                                                "max_overlap_floor_over_d")}, indent=1))
+            s = gap_flight(RESULTS / s["name"])
+            print(json.dumps({k: s.get(k) for k in (
+                "name", "wall_time_s", "cpu_time_s", "flight_time_per_cycle_s",
+                "flight_time_mean_last6_s", "gap_flight_time_mean_last6_s", "period_doubled_last6",
+                "com_period2", "max_overlap_pair_over_d", "max_overlap_floor_over_d")}, indent=1))
     if a.post:
         s = postprocess(a.post)
         print(json.dumps(s, indent=1))
