@@ -258,8 +258,8 @@ run {int(round(0.002 / dt))}
         res = {"v_in_m_s": float(vin), "v_out_m_s": float(vout),
                "restitution_measured": float(abs(vout / vin)),
                "contact_time_measured_s": n_c * dt,
-               "contact_time_theory_s": contact_time(meff) if model == "walton_braun"
-               else hooke_contact_time(meff),
+               "contact_time_theory_s": contact_time(meff, K_N, E_REST) if model == "walton_braun"
+               else hooke_contact_time(meff, K_N, E_REST),
                "max_overlap_measured_m": float(delta_max),
                "max_overlap_theory_m": abs(vin) * math.sqrt(meff / K_N) if model == "walton_braun"
                else None}
@@ -832,16 +832,9 @@ def gap_flight(out: Path) -> dict:
     return s
 
 
-def summary() -> None:
-    rows = []
-    for p in sorted(RESULTS.glob("gamma_*/summary.json")):
-        s = gap_flight(p.parent)
-        rows.append(s)
-    main = [s for s in rows if s["n"] == 2000 and s["model"] == "walton_braun" and s["friction"] == 0
-            and s.get("restitution", 0.9) == 0.9]
-    main.sort(key=lambda s: s["gamma"])
-    with open(HERE / "flight_vs_gamma.csv", "w") as f:
-        f.write("# main runs (N=2000, Walton-Braun, frictionless); flight times of the measured cycles\n")
+def write_flight_table(path: Path, main: list, e_val: float) -> None:
+    with open(path, "w") as f:
+        f.write(f"# N=2000, Walton-Braun, frictionless, e={e_val:g}; flight times of the measured cycles\n")
         f.write("gamma,flight_time_mean_s,flight_time_mean_over_T,flight_time_even_s,flight_time_odd_s,"
                 "even_odd_split,sign_alternation_fraction,period_doubled,com_period2,"
                 "even_odd_split_last6,period_doubled_last6,"
@@ -858,16 +851,36 @@ def summary() -> None:
                     f"{max(s['max_overlap_pair_over_d'], s['max_overlap_floor_over_d']):.5f},"
                     f"{s['wall_time_s']:.1f},{s.get('cpu_time_s', float('nan')):.1f},"
                     + " ".join("nan" if v is None else f"{v:.4f}" for v in s["flight_time_per_cycle_s"]) + "\n")
-    pd_g = [s["gamma"] for s in main if s["period_doubled_last6"]]
-    below = [s["gamma"] for s in main if not s["period_doubled_last6"] and (not pd_g or s["gamma"] < min(pd_g))]
-    pdg = None
-    if pd_g:
-        lo = max(below) if below else None
-        pdg = {"first_doubled_gamma": min(pd_g), "last_single_gamma_below": lo,
-               "estimate": 0.5 * (min(pd_g) + lo) if lo is not None else min(pd_g)}
+
+
+def summary() -> None:
+    rows = []
+    for p in sorted(RESULTS.glob("gamma_*/summary.json")):
+        s = gap_flight(p.parent)
+        rows.append(s)
+    pdg_by_e = {}
+    for e_val, fname in ((0.9, "flight_vs_gamma.csv"), (0.5, "flight_vs_gamma_e0.5.csv")):
+        main = [s for s in rows if s["n"] == 2000 and s["model"] == "walton_braun" and s["friction"] == 0
+                and s.get("restitution", 0.9) == e_val]
+        if not main:
+            continue
+        main.sort(key=lambda s: s["gamma"])
+        write_flight_table(HERE / fname, main, e_val)
+        pd_g = [s["gamma"] for s in main if s["period_doubled_last6"]]
+        below = [s["gamma"] for s in main if not s["period_doubled_last6"] and (not pd_g or s["gamma"] < min(pd_g))]
+        pdg = None
+        if pd_g:
+            lo = max(below) if below else None
+            pdg = {"first_doubled_gamma": min(pd_g), "last_single_gamma_below": lo,
+                   "estimate": 0.5 * (min(pd_g) + lo) if lo is not None else min(pd_g)}
+        pdg_by_e[f"{e_val:g}"] = {"gammas": [s["gamma"] for s in main], "period_doubling": pdg}
+    pdg = pdg_by_e.get("0.9", {}).get("period_doubling")
     params = json.loads((HERE / "params.json").read_text()) if (HERE / "params.json").exists() else {}
-    params["gamma_list_main"] = [s["gamma"] for s in main]
+    params["gamma_list_main"] = pdg_by_e.get("0.9", {}).get("gammas")
     params["period_doubling_gamma"] = pdg
+    params["period_doubling_gamma_exploratory_e0.5"] = pdg_by_e.get("0.5", {}).get("period_doubling")
+    params["period_doubling_note"] = ("main runs (e=0.9, frictionless): no period doubling for 1.5 <= Gamma <= 6 "
+                                      "(null); e=0.5 runs are exploratory (same settled bed, same K and dt)")
     params["runs"] = [{k: s.get(k) for k in ("name", "gamma", "n", "lateral_d", "model", "friction", "restitution",
                                          "wall_time_s", "cpu_time_s", "loop_time_s", "steps", "flight_time_mean_s",
                                          "flight_time_mean_last6_s", "gap_flight_time_mean_last6_s",
