@@ -834,7 +834,8 @@ def gap_flight(out: Path) -> dict:
 
 def write_flight_table(path: Path, main: list, e_val: float) -> None:
     with open(path, "w") as f:
-        f.write(f"# N=2000, Walton-Braun, frictionless, e={e_val:g}; flight times of the measured cycles\n")
+        f.write(f"# N=2000, {main[0]['model']}, friction {main[0]['friction']:g}, e={e_val:g};"
+                " flight times of the measured cycles\n")
         f.write("gamma,flight_time_mean_s,flight_time_mean_over_T,flight_time_even_s,flight_time_odd_s,"
                 "even_odd_split,sign_alternation_fraction,period_doubled,com_period2,"
                 "even_odd_split_last6,period_doubled_last6,"
@@ -859,8 +860,11 @@ def summary() -> None:
         s = gap_flight(p.parent)
         rows.append(s)
     pdg_by_e = {}
-    for e_val, fname in ((0.9, "flight_vs_gamma.csv"), (0.5, "flight_vs_gamma_e0.5.csv")):
-        main = [s for s in rows if s["n"] == 2000 and s["model"] == "walton_braun" and s["friction"] == 0
+    groups = (("walton_braun", 0.0, 0.9, "flight_vs_gamma.csv", "0.9"),
+              ("walton_braun", 0.0, 0.5, "flight_vs_gamma_e0.5.csv", "0.5"),
+              ("hooke", 0.5, 0.9, "flight_vs_gamma_hooke_mu0.5.csv", "hooke_mu0.5"))
+    for model_, mu_, e_val, fname, key in groups:
+        main = [s for s in rows if s["n"] == 2000 and s["model"] == model_ and s["friction"] == mu_
                 and s.get("restitution", 0.9) == e_val]
         if not main:
             continue
@@ -873,12 +877,14 @@ def summary() -> None:
             lo = max(below) if below else None
             pdg = {"first_doubled_gamma": min(pd_g), "last_single_gamma_below": lo,
                    "estimate": 0.5 * (min(pd_g) + lo) if lo is not None else min(pd_g)}
-        pdg_by_e[f"{e_val:g}"] = {"gammas": [s["gamma"] for s in main], "period_doubling": pdg}
+        pdg_by_e[key] = {"gammas": [s["gamma"] for s in main], "period_doubling": pdg}
     pdg = pdg_by_e.get("0.9", {}).get("period_doubling")
     params = json.loads((HERE / "params.json").read_text()) if (HERE / "params.json").exists() else {}
     params["gamma_list_main"] = pdg_by_e.get("0.9", {}).get("gammas")
     params["period_doubling_gamma"] = pdg
     params["period_doubling_gamma_exploratory_e0.5"] = pdg_by_e.get("0.5", {}).get("period_doubling")
+    params["period_doubling_gamma_friction_mu0.5"] = pdg_by_e.get("hooke_mu0.5", {}).get("period_doubling")
+    params["gamma_list_friction_mu0.5"] = pdg_by_e.get("hooke_mu0.5", {}).get("gammas")
     params["period_doubling_note"] = ("main runs (e=0.9, frictionless): no period doubling for 1.5 <= Gamma <= 6 "
                                       "(null); e=0.5 runs are exploratory (same settled bed, same K and dt)")
     params["runs"] = [{k: s.get(k) for k in ("name", "gamma", "n", "lateral_d", "model", "friction", "restitution",
@@ -925,7 +931,7 @@ def write_params(extra: dict) -> None:
         "N_wide": 10000, "box_wide_m": {"lx": 29 * D, "ly": 29 * D, "z": [-0.02, box_top(10000, 29 * D)]},
         "boundary": "periodic x, y; floor mesh at z_floor = A sin(omega t); open top (fixed boundary at z = 0.5 m)",
         "friction_main": 0.0,
-        "friction_run": {"mu": 0.5, "law": "hooke/stiffness + tangential history, k_t = 2K/7, viscoelastic "
+        "friction_runs": {"mu": 0.5, "gammas": "3 (the requested frictional run) and 3.5, 4, 4.5 (period doubling)", "law": "hooke/stiffness + tangential history, k_t = 2K/7, viscoelastic "
                          "dashpot for e (gamman_abs: sphere-sphere 2*sqrt(m/2*K)*(-ln e)/sqrt(pi^2+ln^2 e), "
                          "sphere-floor with m), tangential_damping off, limitForce on",
                          "control": "same law with mu = 0 (tangential no_history)"},
