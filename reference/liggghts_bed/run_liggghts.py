@@ -640,6 +640,28 @@ def flights_from_force(t: np.ndarray, f: np.ndarray, weight: float):
     return out
 
 
+def write_floor_force(out: Path, t, zf, fz, weight: float) -> None:
+    """floor_force.csv: every T/200 (the series in work/ is every 10 steps)."""
+    keep = max(1, int(round((PERIOD / 200) / (t[1] - t[0]))))
+    with open(out / "floor_force.csv", "w") as f:
+        f.write("# t_s: time since start of vibration; z_floor_m = A sin(omega t);"
+                " F_floor_N: total normal force of the spheres on the floor (mesh); every T/200;"
+                f" bed weight M g = {weight:.6g} N\n")
+        f.write("t_s,z_floor_m,F_floor_N\n")
+        for i in range(0, len(t), keep):
+            f.write(f"{t[i]:.6f},{zf[i]:.4e},{fz[i]:.4e}\n")
+
+
+def refresh_floor_force(name: str) -> None:
+    """Rewrite results/<name>/floor_force.csv from work/<name>/floor.txt."""
+    wd = WORK / name
+    meta = json.loads((wd / "meta.json").read_text())
+    a = read_columns(wd / "floor.txt")
+    t = a[:, 0] * meta["dt_s"]
+    write_floor_force(RESULTS / name, t, meta["amplitude_m"] * np.sin(OMEGA * t), -a[:, 2],
+                      MASS * a[0, 6] * G)
+
+
 def postprocess(name: str) -> dict:
     wd = WORK / name
     meta = json.loads((wd / "meta.json").read_text())
@@ -689,13 +711,7 @@ def postprocess(name: str) -> dict:
         for c in range(ncyc):
             f.write(f"{c},{int(c >= n0)},{per[c]:.6f},{per[c]/PERIOD:.5f},{offfrac[c]:.6f}\n")
     # coarser copy of the force series for committing
-    keep = max(1, int(round((PERIOD / 200) / dtp)))
-    with open(out / "floor_force.csv", "w") as f:
-        f.write("# t_s: time since start of vibration; z_floor_m = A sin(omega t);"
-                " F_floor_N: total normal force of the spheres on the floor (mesh); every T/200\n")
-        f.write("t_s,z_floor_m,F_floor_N,F_over_weight\n")
-        for i in range(0, len(t), keep):
-            f.write(f"{t[i]:.6f},{zf[i]:.6e},{fz[i]:.6e},{fz[i]/weight:.5f}\n")
+    write_floor_force(out, t, zf, fz, weight)
 
     # --- positions (every 1/(40 f))
     frames = read_dump(wd / "bed.dump")
