@@ -218,7 +218,7 @@ def add_parser(sub):
                            "(default both, comma-separated)")
             p.add_argument("--cases", default=None, help="packing only: comma-separated case names (default all)")
             p.add_argument("--stiffness-factor", default=None,
-                           help="packing only: contact stiffness K times this factor in (0, 1] (default 1), "
+                           help="packing, lagrangian formulation only: contact stiffness K times this factor in (0, 1] (default 1), "
                            "or 'auto': per case the factor of impact Mach number 0.01 "
                            "(bsrflow.physics.column.suggest_stiffness_factor; documented cost: top maximum "
                            "within 1.5 %%, mass-centre RMS within 0.25 d of the true stiffness's)")
