@@ -350,6 +350,18 @@ def _wait_for(proc, out, n_min, timeout=180):
                          f"{proc.stderr.read() if proc.poll() is not None else ''}")
 
 
+def _kill_after(proc, out, n_min):
+    """SIGKILL ``proc`` once ``out`` and its checkpoint exist and ``out`` holds n_min snapshots."""
+    try:
+        _wait_for(proc, out, n_min)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+
+
 def test_sigterm_is_handled_like_ctrl_c_and_says_what_was_kept(tmp_path, reference, capsys):
     cfg_path, ref_out = reference
     out = tmp_path / "term.nc"
@@ -420,14 +432,7 @@ def test_default_config_checkpoints_and_resumes_after_sigkill_bit_for_bit(tmp_pa
     assert np.array_equal(load(full).rho.values, ref.rho) and load(full).attrs["steps"] == ref.steps
     out = tmp_path / "killed.nc"
     proc = _start_slow(["run", str(cfg_path), "--out", str(out), "--quiet"], 0.02)
-    try:
-        _wait_for(proc, out, 30)                     # past the first checkpoint (t = 0.1 s, snapshot 21)
-        proc.send_signal(signal.SIGKILL)
-        proc.wait(30)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
+    _kill_after(proc, out, 30)                       # past the first checkpoint (t = 0.1 s, snapshot 21)
     assert load(out).attrs["status"] == "running" and load(out).sizes["time"] < 261
     capsys.readouterr()
     assert main(["run", str(cfg_path), "--out", str(out), "--resume"]) == 0
@@ -449,14 +454,7 @@ def test_packing_run_resumes_after_sigkill_bit_for_bit(tmp_path, capsys, form):
     assert main(["run", str(cfg_path), "--out", str(full), "--quiet"] + sets) == 0
     out = tmp_path / "killed.nc"
     proc = _start_slow(["run", str(cfg_path), "--out", str(out), "--quiet"] + sets, 0.02)
-    try:
-        _wait_for(proc, out, 30)                     # past the first checkpoint (t = 0.1 s, snapshot 21)
-        proc.send_signal(signal.SIGKILL)
-        proc.wait(30)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
+    _kill_after(proc, out, 30)                       # past the first checkpoint (t = 0.1 s, snapshot 21)
     assert load(out).attrs["status"] == "running" and load(out).sizes["time"] < 61
     capsys.readouterr()
     assert main(["run", str(cfg_path), "--out", str(out), "--resume"] + sets) == 0
