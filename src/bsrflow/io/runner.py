@@ -329,7 +329,7 @@ def _run_packing_config(config: Config, out, *, resume=False, progress=None, log
 
     try:
         run_packing(disc, t_end, save_times[save_times >= t0], t_start=t0, observers=[writer], progress=progress,
-                    extra_event_times=ckpt_times[ckpt_times > t0 - 1e-15], on_event=on_checkpoint, restart=resume)
+                    extra_event_times=ckpt_times[ckpt_times > t0], on_event=on_checkpoint)
     except SimulationError as exc:
         writer.close(str(exc))
         raise

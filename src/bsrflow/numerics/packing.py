@@ -218,47 +218,39 @@ class LagrangianPacking(_Base):
 
 
 def run_packing(disc, t_end, save_times, *, t_start=0.0, observers=(), extra_event_times=(), on_event=None,
-                progress=None, restart=False):
-    """The run controller of both discretisations: advance from event to event (save times,
-    velocity jumps of the motion, ``extra_event_times`` such as checkpoints), apply the jumps,
-    call ``on_event(t, disc)`` at the extra events (before the jump and the save at t, as
-    checkpoints need) and every observer ``obs(t, u, rho, tracers)`` at the saves.
+                progress=None):
+    """Run ``disc`` (either formulation) from t_start to t_end through the controller shared with
+    the seed's solver (:func:`bsrflow.numerics.controller.drive_events`): advance from event to
+    event (save times, the motion's velocity jumps, ``extra_event_times`` such as checkpoints,
+    only those strictly inside (t_start, t_end)), call ``on_event(t, disc)`` at the extra events
+    (before the jump and the save at t, as checkpoints need) and every observer
+    ``obs(t, u, rho, tracers)`` at the saves.
 
     A monitor stop raises :class:`PackingError` after the observers got every snapshot before it
     and ``disc`` holds the state reached (nothing written so far is lost).  Returns a
     :class:`PackingResult` with the saved snapshots."""
+    from .controller import drive_events
     t_end = float(t_end)
     save_times = np.asarray(save_times, dtype=float)
-    jumps = disc.motion.jumps_between(t_start, t_end + 1e-15)
-    extra = np.asarray(extra_event_times, dtype=float)
-    events = sorted(set(save_times.tolist()) | {tj for tj, _ in jumps} | set(extra.tolist()) | {t_end})
-    events = [e for e in events if t_start <= e <= t_end]
-    save_set, extra_set = set(save_times.tolist()), set(extra.tolist())
-    jump_at = {}
-    for tj, dv in jumps:
-        jump_at[tj] = jump_at.get(tj, 0.0) + dv
     out_t, out_rho, out_u, out_tr, out_floor = [], [], [], [], []
-    t = float(t_start)
     steps0 = disc.steps
     wall = time.perf_counter()
-    for e in events:
-        if e > t:
-            t = disc.advance(t, e)
-        if e in extra_set and on_event is not None and not (restart and e == t_start):
-            on_event(e, disc)
-        if e in jump_at:
-            disc.apply_velocity_jump(jump_at[e])
-        if e in save_set:
-            rho, u, tr, _ = disc.observe()
-            for obs in observers:
-                obs(e, u, rho, tr)
-            out_t.append(e)
-            out_rho.append(rho)
-            out_u.append(u)
-            out_tr.append(tr)
-            out_floor.append(disc.motion.state(e)[0])
-            if progress is not None:
-                progress(e)
+
+    def save(e):
+        rho, u, tr, _ = disc.observe()
+        for obs in observers:
+            obs(e, u, rho, tr)
+        out_t.append(e)
+        out_rho.append(rho)
+        out_u.append(u)
+        out_tr.append(tr)
+        out_floor.append(disc.motion.state(e)[0])
+        if progress is not None:
+            progress(e)
+
+    drive_events(float(t_start), t_end, save_times, disc.motion.jumps_between(t_start, t_end), extra_event_times,
+                 advance=disc.advance, apply_jump=disc.apply_velocity_jump, save=save,
+                 on_event=None if on_event is None else (lambda e: on_event(e, disc)))
     wall = time.perf_counter() - wall
     return PackingResult(np.array(out_t), np.array(out_rho), np.array(out_u), np.array(out_tr),
                          np.array(out_floor), disc.steps - steps0, wall,

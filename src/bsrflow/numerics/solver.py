@@ -20,6 +20,7 @@ import numpy as np
 from ..physics.model import BSRModel, jit_user
 from .compiled import STATUS, direct_integral, make_core
 from .limits import MAX_SNAPSHOTS, cfl_limit
+from .controller import drive_events
 from .grid import Grid1D
 from .quadrature import QUADRATURES, quadrature_weights
 from .steppers import get_stepper
@@ -452,9 +453,6 @@ class Simulation:
         tr = check_tracers(tracers, g, inside=not restart)
         save_times = save_schedule(t_start, t_end, save_every, save_times)
         jumps = self.model.motion.jumps_between(t_start, t_end)
-        extra = {float(te) for te in extra_event_times if t_start < te < t_end}
-        events = sorted(set(save_times.tolist()) | {tj for tj, _ in jumps} | extra)
-
         ts, us, rs, trs, fl = [], [], [], [], []
         motion = self.model.motion
 
@@ -480,29 +478,25 @@ class Simulation:
         wall0 = _time.perf_counter()
         rejected0 = int(self.counters[0])
         total_steps = 0
-        t = float(t_start)
-        save_set = set(save_times.tolist())
-        jump_at = {}
-        for tj, dv in jumps:
-            jump_at[tj] = jump_at.get(tj, 0.0) + dv
-        for ev in events:
-            if ev > t:
-                t_new, steps, status, where, dt_last = self.advance(u, rho, t, ev, tr,
-                                                                    max_steps=self.max_steps - total_steps)
-                total_steps += steps
-                if status != 0:
-                    x_where = float(g.x[where]) if 0 <= where < g.n_cells else float("nan")
-                    msg = (f"simulation stopped at t = {t_new:.6g} s near x = {x_where:.6g} m "
-                           f"(cell {where}): {STATUS[status]}; last dt = {dt_last:.3g} s, "
-                           f"{total_steps} steps; {len(ts)} snapshot(s) up to t = "
-                           f"{(ts[-1] if ts else t_start):.6g} s were kept")
-                    raise SimulationError(msg, result(STATUS[status]), t_new, x_where, status)
-                t = ev
-            if ev in extra and on_event is not None:
-                on_event(ev, u, rho, tr, total_steps)
-            if ev in jump_at:
-                # the floor velocity jumps by dv: the velocity relative to the floor by -dv (3.15)
-                u -= jump_at[ev]
-            if ev in save_set:
-                save(ev)
+
+        def advance(t, ev):
+            nonlocal total_steps
+            t_new, steps, status, where, dt_last = self.advance(u, rho, t, ev, tr,
+                                                                max_steps=self.max_steps - total_steps)
+            total_steps += steps
+            if status != 0:
+                x_where = float(g.x[where]) if 0 <= where < g.n_cells else float("nan")
+                msg = (f"simulation stopped at t = {t_new:.6g} s near x = {x_where:.6g} m "
+                       f"(cell {where}): {STATUS[status]}; last dt = {dt_last:.3g} s, "
+                       f"{total_steps} steps; {len(ts)} snapshot(s) up to t = "
+                       f"{(ts[-1] if ts else t_start):.6g} s were kept")
+                raise SimulationError(msg, result(STATUS[status]), t_new, x_where, status)
+
+        def apply_jump(dv):
+            # the floor velocity jumps by dv: the velocity relative to the floor by -dv (3.15)
+            np.subtract(u, dv, out=u)
+
+        drive_events(t_start, t_end, save_times, jumps, extra_event_times, advance=advance,
+                     apply_jump=apply_jump, save=save,
+                     on_event=None if on_event is None else (lambda ev: on_event(ev, u, rho, tr, total_steps)))
         return result("ok")
