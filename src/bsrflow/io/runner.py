@@ -23,6 +23,7 @@ How a resumed run equals an uninterrupted one bit for bit
 
 from __future__ import annotations
 
+import contextlib
 import os
 import time as _time
 import tomllib
@@ -177,7 +178,10 @@ def run_config(config: Config, out, *, resume: bool = False, progress=None, log=
         if progress is not None:
             progress(t)
 
-    try:
+    stop_attrs = lambda: {"rejected_steps": np.int64(rejected0 + int(sim.counters[0]) - rejected_start)}  # noqa: E731
+    with _closing_on_failure(writer, stop_attrs,
+                             lambda exc: _interrupted(exc, writer, out, resume, config, last_ckpt[0], ckpt_file,
+                                                      ckpt_times, t0)):
         # compile the time loop now (a no-op advance: t_end = t), not in the middle of the progress bar
         log("compiling the solver (once per process; about 10 s)")
         compile_start = _time.perf_counter()
@@ -190,15 +194,6 @@ def run_config(config: Config, out, *, resume: bool = False, progress=None, log=
         res = sim.run(u0, rho0, t_end, t_start=t0, save_times=save_times[save_times >= t0], tracers=tr0,
                       observers=[writer], progress=progress, extra_event_times=ckpt_times[ckpt_times > t0],
                       on_event=on_checkpoint, restart=resume)
-    except SimulationError as exc:
-        writer.close(str(exc), rejected_steps=np.int64(rejected0 + int(sim.counters[0]) - rejected_start))
-        raise
-    except KeyboardInterrupt as exc:
-        _interrupted(exc, writer, out, resume, config, last_ckpt[0], ckpt_file, ckpt_times, t0)
-        raise
-    except BaseException as exc:
-        writer.close(f"failed: {type(exc).__name__}: {exc}")
-        raise
     rejected = rejected0 + int(sim.counters[0]) - rejected_start
     writer.close("ok", steps=np.int64(steps0 + res.steps), rejected_steps=np.int64(rejected))
     if os.path.exists(ckpt_file):
@@ -240,6 +235,24 @@ def _reopen_output(out, t_ck, grid, n_tr, floor, save_times):
         raise ConfigError("--resume", f"{out} holds {kept.size} snapshots before the checkpoint time "
                           f"t = {t_ck:.6g} s, expected {expected.size}; run without --resume to start over")
     return writer, kept
+
+
+@contextlib.contextmanager
+def _closing_on_failure(writer, stop_attrs, interrupted):
+    """Close ``writer`` with what stopped the run, then re-raise: a monitor's message (with the
+    attributes ``stop_attrs()``), an interrupt (``interrupted(exc)`` closes it and words the
+    message), or "failed: ..."; nothing written so far is lost."""
+    try:
+        yield
+    except SimulationError as exc:
+        writer.close(str(exc), **stop_attrs())
+        raise
+    except KeyboardInterrupt as exc:
+        interrupted(exc)
+        raise
+    except BaseException as exc:
+        writer.close(f"failed: {type(exc).__name__}: {exc}")
+        raise
 
 
 def _interrupted(exc, writer, out, resume, config, last_ckpt_t, ckpt_file, ckpt_times, t0):
@@ -309,14 +322,7 @@ def _run_packing_config(config: Config, out, *, resume=False, progress=None, log
         writer = NetCDFWriter(out, grid.x, grid.dx, n_tr, floor, attrs, expected_snapshots=save_times.size)
     if setup.stiffness_factor < 1.0:
         log(stiffness_note(setup))
-    log(f"compiling the {disc.name} packing solver (once per process)")
-    compile_start = _time.perf_counter()
-    disc.advance(t0, t0)
-    wall_start = _time.perf_counter()
-    if progress is not None:
-        progress(t0)
-
-    last_ckpt = [None]
+    last_ckpt = [t0 if resume else None]             # time of the checkpoint on disk
 
     def on_checkpoint(t, d):
         last_ckpt[0] = t
@@ -327,18 +333,18 @@ def _run_packing_config(config: Config, out, *, resume=False, progress=None, log
         if progress is not None:
             progress(t)
 
-    try:
+    wall_start = _time.perf_counter()
+    with _closing_on_failure(writer, dict,
+                             lambda exc: _interrupted(exc, writer, out, resume, config, last_ckpt[0], ckpt_file,
+                                                      ckpt_times, t0)):
+        log(f"compiling the {disc.name} packing solver (once per process)")
+        compile_start = _time.perf_counter()
+        disc.advance(t0, t0)
+        wall_start = _time.perf_counter()
+        if progress is not None:
+            progress(t0)
         run_packing(disc, t_end, save_times[save_times >= t0], t_start=t0, observers=[writer], progress=progress,
                     extra_event_times=ckpt_times[ckpt_times > t0], on_event=on_checkpoint)
-    except SimulationError as exc:
-        writer.close(str(exc))
-        raise
-    except KeyboardInterrupt as exc:
-        _interrupted(exc, writer, out, resume, config, last_ckpt[0], ckpt_file, ckpt_times, t0)
-        raise
-    except BaseException as exc:
-        writer.close(f"failed: {type(exc).__name__}: {exc}")
-        raise
     steps = int(disc.counters[0])
     writer.close("ok", steps=np.int64(steps), rejected_steps=np.int64(0))
     if os.path.exists(ckpt_file):
