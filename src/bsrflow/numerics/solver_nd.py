@@ -117,6 +117,27 @@ class ResultND:
 
 
 # ---- the simulation ------------------------------------------------------------------------
+SCHEME_OPTIONS_ND = frozenset({"stepper", "filter", "cfl", "dt", "name", "check_cfl", "tracer_integrator"})
+"""The :class:`~bsrflow.numerics.solver.Scheme` options the n-D solver acts on; every other one
+must keep its default (:func:`check_scheme_supported`).  ``tracer_integrator`` is accepted with
+either value because the n-D solver has no tracers (its ResultND has none to integrate)."""
+
+
+def check_scheme_supported(scheme: Scheme, supported, where: str):
+    """Refuse (ValueError, one line naming the option and its valid value) a scheme that sets an
+    option ``where`` does not implement: every :class:`Scheme` field outside ``supported`` must
+    have its default.  A named preset (e.g. 'accurate') is named in the message."""
+    from dataclasses import fields
+    for f in fields(Scheme):
+        if f.name in supported:
+            continue
+        value, default = getattr(scheme, f.name), f.default
+        if value != default:
+            preset = f" (set by the scheme preset {scheme.name!r})" if scheme.name not in ("custom", "seed") else ""
+            raise ValueError(f"scheme option {f.name} = {value!r}{preset} is not supported by {where}; "
+                             f"valid: {default!r} (supported options: {', '.join(sorted(supported))})")
+
+
 class SimulationND:
     """A 2-D / 3-D BSR model on a grid with a scheme.
 
@@ -125,8 +146,10 @@ class SimulationND:
     model : :class:`bsrflow.physics.kernels_nd.BSRModelND`.
     grid : :class:`bsrflow.numerics.grid_nd.GridND`; the kernel radius must be a whole number
         W >= 2 of cells.
-    scheme : :class:`bsrflow.numerics.solver.Scheme` (uses stepper, filter, cfl, dt; the 1-D
-        quadrature and tracer options do not apply).  Default: the seed's preset.  Without a
+    scheme : :class:`bsrflow.numerics.solver.Scheme`; the options of :data:`SCHEME_OPTIONS_ND`
+        (stepper, filter, cfl, dt, check_cfl); any other option set away from its default
+        (rtol, hyperdiffusion, positivity, the sensor, the 1-D quadrature, i.e. the 'accurate'
+        preset) is refused with a ValueError naming it.  Default: the seed's preset.  Without a
         fixed dt the step is Δt = cfl Δx / (max_cells Σ_a |u_a| + sqrt(n κ max ρ)), κ from
         :meth:`stiffness_moment` (the n-D bound of central differences).
     average : moving average when ``scheme.filter``: 'na' the seed's (5.7), 'tensor' the
@@ -159,6 +182,7 @@ class SimulationND:
         self.model = model
         self.grid = grid
         self.scheme = scheme or Scheme.preset("seed")
+        check_scheme_supported(self.scheme, SCHEME_OPTIONS_ND, "the n-D solver (SimulationND)")
         self.average = average
         R = model.kernel.radius
         Wf = R / grid.dx
