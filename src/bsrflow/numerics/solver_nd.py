@@ -117,7 +117,8 @@ class ResultND:
 
 
 # ---- the simulation ------------------------------------------------------------------------
-SCHEME_OPTIONS_ND = frozenset({"stepper", "filter", "cfl", "dt", "name", "check_cfl", "tracer_integrator"})
+SCHEME_OPTIONS_ND = frozenset({"stepper", "filter", "cfl", "dt", "name", "check_cfl", "tracer_integrator",
+                               "positivity"})
 """The :class:`~bsrflow.numerics.solver.Scheme` options the n-D solver acts on; every other one
 must keep its default (:func:`check_scheme_supported`).  ``tracer_integrator`` is accepted with
 either value because the n-D solver has no tracers (its ResultND has none to integrate)."""
@@ -147,8 +148,9 @@ class SimulationND:
     grid : :class:`bsrflow.numerics.grid_nd.GridND`; the kernel radius must be a whole number
         W >= 2 of cells.
     scheme : :class:`bsrflow.numerics.solver.Scheme`; the options of :data:`SCHEME_OPTIONS_ND`
-        (stepper, filter, cfl, dt, check_cfl); any other option set away from its default
-        (rtol, hyperdiffusion, positivity, the sensor, the 1-D quadrature, i.e. the 'accurate'
+        (stepper, filter, cfl, dt, check_cfl, positivity: the column-wise mass-conserving fix
+        ``compiled_nd.make_positive_columns`` after every step); any other option set away from
+        its default (rtol, hyperdiffusion, the sensor, the 1-D quadrature, i.e. the 'accurate'
         preset) is refused with a ValueError naming it.  Default: the seed's preset.  Without a
         fixed dt the step is Δt = cfl Δx / (max_cells Σ_a |u_a| + sqrt(n κ max ρ)), κ from
         :meth:`stiffness_moment` (the n-D bound of central differences).
@@ -259,7 +261,8 @@ class SimulationND:
             tb.a, tb.b, tb.c, self._filter_code(), g.dim, sx, sy, sz, gx, gy, gz, kx, ky, kz, prz,
             self.floor, Gx, Gy, Gz, g.dx, self.dA, self.dB, self.hc, self.hw, self.hwB, self.model.kernel.params,
             self.model.gravity, self.model.motion.params, self.dt_min, self.rho_max,
-            int(max_steps or self.max_steps), self.top_tolerance, top_layers, self.vacuum_density)
+            int(max_steps or self.max_steps), self.top_tolerance, top_layers, self.vacuum_density,
+            bool(s.positivity))
 
     def _padded(self, ui, ri):
         Gx, Gy, Gz = self.G

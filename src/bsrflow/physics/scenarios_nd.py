@@ -44,8 +44,12 @@ defaults, 0.2 s; :func:`run_scenario`):
   embedding makes the two identical for flat layers).
 * negative densities: central differences of the mass flux next to a receding free surface
   take a little mass out of the empty cell above it (dρ/dt = ρ_below u_below / (2Δx) < 0);
-  in the shipped scenarios min ρ is about -2 kg/m³ (-0.3 % of ρ_b).  The seed's scheme has no
-  positivity mechanism; nothing is clipped here (clipping would create mass).
+  in the shipped scenarios min ρ is about -2 kg/m³ (-0.3 % of ρ_b) with the seed's scheme,
+  which has no positivity mechanism.  The scenarios therefore run it with the column-wise,
+  mass-conserving positivity fix (``positivity=True``, the default;
+  ``compiled_nd.make_positive_columns``: a negative cell is set to 0 and its deficit taken from
+  the nearest positive cells of its vertical column), so ρ ≥ 0 and the mass is kept to
+  round-off; ``positivity=False`` gives the seed's scheme as it is.
 
 Domain height from an energy bound as for the column: the floor moves at most at aω; launch
 speeds up to 3aω give flights of (3aω)²/(2g); the domain is H + (3aω)²/(2g) + 3R (rounded up
@@ -133,6 +137,8 @@ class LayerSetup:
     settle_time : time at rest before the floor moves [s].
     t_end : end time [s]; save_every : snapshot interval [s].
     scheme : preset name of :class:`bsrflow.numerics.solver.Scheme` ('seed').
+    positivity : add the column-wise mass-conserving positivity fix to the preset (True; see
+        the module docstring); a :class:`Scheme` passed to :func:`run_scenario` is used as given.
     average : moving average 'na' (5.7) or 'tensor'.
     domain_height : total height [m] (default: the energy bound).
     """
@@ -153,10 +159,13 @@ class LayerSetup:
     scheme: str = "seed"
     average: str = "na"
     domain_height: float | None = None
+    positivity: bool = True
 
     def __post_init__(self):
         if self.dim not in (2, 3):
             raise ValueError(f"dim = {self.dim!r} is outside the valid range {{2, 3}}")
+        if not isinstance(self.positivity, (bool, np.bool_)):
+            raise ValueError(f"positivity = {self.positivity!r} must be True or False")
         for name, v in (("box_width", self.box_width), ("layer_height", self.layer_height),
                         ("diameter", self.diameter), ("bottom_density", self.bottom_density),
                         ("t_end", self.t_end),
@@ -332,7 +341,7 @@ def run_scenario(setup: LayerSetup, scheme: Scheme | str | None = None, observer
     if scheme is None:
         scheme = setup.scheme
     if isinstance(scheme, str):
-        scheme = Scheme.preset(scheme)
+        scheme = Scheme.preset(scheme, positivity=bool(setup.positivity))
     grid = setup.grid()
     sim = SimulationND(setup.model(), grid, scheme, average=setup.average,
                        vacuum_density=1e-4 * setup.bottom_density, top_tolerance=1e-3 * setup.bottom_density)
