@@ -309,15 +309,25 @@ class SimulationND:
 
     # -- a whole run --------------------------------------------------------------------------
     def run(self, u0, rho0, t_end, *, t_start=0.0, save_every=None, save_times=None, observers=(),
-            progress=None) -> ResultND:
-        """Integrate from t_start to t_end [s], saving snapshots.
+            progress=None, extra_event_times=(), on_event=None, restart=False) -> ResultND:
+        """Integrate from t_start to t_end [s], saving snapshots, through the run controller
+        shared with the 1-D solvers (:func:`bsrflow.numerics.controller.drive_events`).
 
         u0 (n, *shape) [m/s] velocity relative to the floor, rho0 (*shape) [kg/m^n].
         save_every [s] or save_times [s]: when to save (default: start and end only).
         observers: callables ``obs(t, u, rho)`` (user layout) called at every save.
+        progress: callable ``progress(t)`` called at every save.
+        extra_event_times, on_event: as for the 1-D :meth:`Simulation.run`: the time loop lands
+            on those in (t_start, t_end) exactly and calls ``on_event(t, u, rho, steps)`` (user
+            layout; ``steps`` taken so far in this call) before the velocity jump and the save
+            at t; that state, restarted with ``run(..., t_start=t, restart=True)``, continues
+            bit for bit (checkpoints).
+        restart: the initial state is one saved by an earlier run: skip the check rho0 >= 0
+            (without the positivity fix round-off level negative densities occur).
         Raises :class:`bsrflow.numerics.solver.SimulationError` (``.result`` keeps the
         snapshots, ``.position`` is the cell centre (m) where the monitor fired, or None).
         """
+        from .controller import drive_events
         g = self.grid
         u0 = np.asarray(u0, float)
         rho0 = np.asarray(rho0, float)
@@ -326,7 +336,7 @@ class SimulationND:
                 raise ValueError(f"{name} contains non-finite values")
         ui, ri = to_internal(g, u0, rho0, names=("u0", "rho0"))
         ui, ri = ui.copy(), ri.copy()
-        if np.any(ri < 0):
+        if not restart and np.any(ri < 0):
             raise ValueError(f"rho0 has negative values (min {ri.min():.3g} kg/m^{g.dim}); density must be >= 0")
         _require_number("t_start", t_start)       # the checks of the 1-D Simulation.run
         _require_number("t_end", t_end)
@@ -335,11 +345,6 @@ class SimulationND:
         save_times = save_schedule(t_start, t_end, save_every, save_times)
         motion = self.model.motion
         jumps = motion.jumps_between(t_start, t_end)
-        events = sorted(set(save_times.tolist()) | {tj for tj, _ in jumps})
-        jump_at = {}
-        for tj, dv in jumps:
-            jump_at[tj] = jump_at.get(tj, 0.0) + dv
-        save_set = set(save_times.tolist())
         ts, us, rs, fl = [], [], [], []
         wall0 = _time.perf_counter()
         total = 0
@@ -362,23 +367,27 @@ class SimulationND:
                             {"scheme": self.scheme.to_dict(), "average": self.average, "grid": g.to_dict(),
                              "model": self.model.to_dict(), "kernel_radius_cells": self.W})
 
-        t = float(t_start)
-        for ev in events:
-            if ev > t:
-                t_new, steps, status, where, dt_last = self.advance_internal(ui, ri, t, ev,
-                                                                             max_steps=self.max_steps - total)
-                total += steps
-                if status != 0:
-                    pos = self._position(where)
-                    msg = (f"simulation stopped at t = {t_new:.6g} s near x = {pos} m: {STATUS[status]}; "
-                           f"last dt = {dt_last:.3g} s, {total} steps; {len(ts)} snapshot(s) up to t = "
-                           f"{(ts[-1] if ts else t_start):.6g} s were kept")
-                    raise SimulationError(msg, result(STATUS[status]), t_new, pos, status)
-                t = ev
-            if ev in jump_at:
-                ui[2] -= jump_at[ev]          # floor velocity jumps by dv: u_z (floor frame) by -dv
-            if ev in save_set:
-                save(ev)
+        def advance(t, ev):
+            nonlocal total
+            t_new, steps, status, where, dt_last = self.advance_internal(ui, ri, t, ev,
+                                                                         max_steps=self.max_steps - total)
+            total += steps
+            if status != 0:
+                pos = self._position(where)
+                msg = (f"simulation stopped at t = {t_new:.6g} s near x = {pos} m: {STATUS[status]}; "
+                       f"last dt = {dt_last:.3g} s, {total} steps; {len(ts)} snapshot(s) up to t = "
+                       f"{(ts[-1] if ts else t_start):.6g} s were kept")
+                raise SimulationError(msg, result(STATUS[status]), t_new, pos, status)
+
+        def apply_jump(dv):
+            ui[2] -= dv          # floor velocity jumps by dv: u_z (floor frame) by -dv
+
+        def event(ev):
+            uu, rr = from_internal(g, ui, ri)
+            on_event(ev, uu, rr, total)
+
+        drive_events(float(t_start), float(t_end), save_times, jumps, extra_event_times, advance=advance,
+                     apply_jump=apply_jump, save=save, on_event=None if on_event is None else event)
         return result("ok")
 
 
