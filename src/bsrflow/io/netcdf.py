@@ -62,7 +62,7 @@ import numpy as np
 
 from .. import __version__
 
-__all__ = ["NetCDFWriter", "SCHEMA", "read_snapshots"]
+__all__ = ["NetCDFWriter", "NetCDFWriterND", "SCHEMA", "schema_nd", "read_snapshots"]
 
 SCHEMA = {
     # name: (dims, units, long_name)
@@ -119,8 +119,19 @@ class NetCDFWriter:
         self.attrs.update(attrs or {})
         self.attrs["status"] = "running"
         self.expected = max(1, int(expected_snapshots or 1))
-        self._rows: dict[str, list] | None = {k: [] for k in _TIME_VARS}   # before the file appears
-        self._series = {k: [] for k in _SERIES}
+        self._init_schema(SCHEMA, {"x": self.x.size, "tracer": self.n_tracers},
+                          {"x": self.x, "tracer": np.arange(self.n_tracers, dtype=np.int32)})
+
+    def _init_schema(self, schema, dim_sizes, coords):
+        """The file's variables (name -> (dims, units, long_name)), fixed dimension sizes and
+        coordinate values; the in-memory rows and series start empty."""
+        self.schema = schema
+        self.dim_sizes = dict(dim_sizes)
+        self.coords = coords
+        self._time_vars = [k for k, (dims, _, _) in schema.items() if dims[0] == "time"]
+        self._series_names = [k for k in self._time_vars if schema[k][0] == ("time",)]
+        self._rows: dict[str, list] | None = {k: [] for k in self._time_vars}   # before the file appears
+        self._series = {k: [] for k in self._series_names}
         self._h5 = None
         self._ds = {}
         self.n = 0
@@ -142,23 +153,30 @@ class NetCDFWriter:
             raise ValueError(f"{os.fspath(path)}: it has {data['tracer'].size} tracers, this run {n_tracers}")
         keep = data["time"] < keep_before
         w = cls(path, x, dx, n_tracers, floor, expected_snapshots=expected_snapshots)
-        w.attrs = dict(attrs)
-        w.attrs["status"] = "running"
-        for k in _TIME_VARS:
-            w._rows[k] = list(data[k][keep])
-        for k in _SERIES:
-            w._series[k] = list(data[k][keep])
-        w.n = int(keep.sum())
-        if w.n:
-            w._publish()
-        return w
+        return w._keep(data, attrs, keep)
+
+    def _keep(self, data, attrs, keep):
+        """Take the file's attributes and its snapshots where ``keep``; rewrite the file."""
+        self.attrs = dict(attrs)
+        self.attrs["status"] = "running"
+        for k in self._time_vars:
+            self._rows[k] = list(data[k][keep])
+        for k in self._series_names:
+            self._series[k] = list(data[k][keep])
+        self.n = int(keep.sum())
+        if self.n:
+            self._publish()
+        return self
 
     # -- the observer -----------------------------------------------------------------------------
     def __call__(self, t, u, rho, tracers):
         """Append the snapshot at t [s] and flush it to disk."""
         if self.closed:
             raise RuntimeError(f"{self.path}: writer is closed")
-        t = float(t)
+        self._append(self._row(float(t), u, rho, tracers))
+
+    def _row(self, t, u, rho, tracers):
+        """The values of every time-dependent variable at t."""
         fl = float(self.floor(t))
         u = np.asarray(u, dtype=float)
         rho = np.asarray(rho, dtype=float)
@@ -175,16 +193,19 @@ class NetCDFWriter:
             "mass": mass,
             "kinetic_energy": 0.5 * (rho * u ** 2).sum() * self.dx,
         }
-        for k in _SERIES:
+        return row
+
+    def _append(self, row):
+        for k in self._series_names:
             self._series[k].append(row[k])
         if self._h5 is None:
-            for k in _TIME_VARS:
+            for k in self._time_vars:
                 self._rows[k].append(row[k])
             self.n += 1
             self._publish()
             return
         k0 = self.n
-        for k in _TIME_VARS:
+        for k in self._time_vars:
             ds = self._ds[k]
             ds.resize(k0 + 1, axis=0)
             ds[k0] = row[k]
@@ -236,29 +257,29 @@ class NetCDFWriter:
             self._h5.close()
             self._h5 = None
         tmp = f"{self.path}.tmp{os.getpid()}"
-        nx, ntr, n = self.x.size, self.n_tracers, self.n
+        n = self.n
         try:
             with h5netcdf.File(tmp, "w") as f:
-                f.dimensions = {"time": None, "x": nx, "tracer": ntr}
-                for name, (dims, units, long_name) in SCHEMA.items():
+                f.dimensions = {"time": None, **self.dim_sizes}
+                for name, (dims, units, long_name) in self.schema.items():
                     if dims[0] == "time":
-                        row_shape = tuple(nx if d == "x" else ntr for d in dims[1:])
+                        row_shape = tuple(self.dim_sizes[d] for d in dims[1:])
                         per_row = 8 * int(np.prod(row_shape)) if row_shape else 8
                         chunks = (self._chunk_rows(per_row),) + tuple(max(1, s) for s in row_shape)
                         v = f.create_variable(name, dims, "f8", chunks=chunks, fillvalue=np.nan)
-                    elif name == "tracer":
+                    elif np.asarray(self.coords[name]).dtype.kind == "i":
                         v = f.create_variable(name, dims, "i4")
                     else:
                         v = f.create_variable(name, dims, "f8")
                     v.attrs["units"] = units
                     v.attrs["long_name"] = long_name
-                f.variables["x"][:] = self.x
-                f.variables["tracer"][:] = np.arange(ntr, dtype=np.int32)
+                for name, values in self.coords.items():
+                    f.variables[name][:] = values
                 for k, val in self.attrs.items():
                     f.attrs[k] = val
                 f.resize_dimension("time", n)
                 if n:
-                    for k in _TIME_VARS:
+                    for k in self._time_vars:
                         f.variables[k][...] = np.asarray(self._rows[k], dtype=float).reshape(
                             f.variables[k].shape)
             with open(tmp, "rb+") as fh:
@@ -269,7 +290,87 @@ class NetCDFWriter:
                 os.remove(tmp)
         self._rows = None
         self._h5 = h5py.File(self.path, "r+", locking=False)
-        self._ds = {k: self._h5[k] for k in _TIME_VARS}
+        self._ds = {k: self._h5[k] for k in self._time_vars}
+
+
+def schema_nd(dim: int) -> dict:
+    """Variables of an n-D run's file (:class:`NetCDFWriterND`), dim = 2 (axes x, z) or 3
+    (x, y, z; z vertical, from the floor): name -> (dims, units, long_name)."""
+    axes = ("x", "z") if dim == 2 else ("x", "y", "z")
+    per = "m-1" if dim == 2 else ""            # 2-D: per unit depth
+    out = {"time": (("time",), "s", "simulated time")}
+    for a in axes:
+        where = "height above the floor" if a == "z" else f"horizontal position ({a})"
+        out[a] = ((a,), "m", f"{where} of the cell centre (floor frame)")
+    out["rho"] = (("time",) + axes, f"kg m-{dim}", "density (mass per unit volume)" if dim == 3
+                  else "density (mass per unit area)")
+    for a in axes:
+        out[f"u_{a}"] = (("time",) + axes, "m s-1", f"velocity component {a} relative to the floor")
+    out["floor"] = (("time",), "m", "floor position (lab frame)")
+    out["mass_centre"] = (("time",), "m", "height of the mass centre (lab frame)")
+    out["mass"] = (("time",), ("kg " + per).strip(), "total mass" + (" per unit depth" if per else ""))
+    out["kinetic_energy"] = (("time",), ("J " + per).strip(), "kinetic energy (floor frame)"
+                             + (" per unit depth" if per else ""))
+    return out
+
+
+class NetCDFWriterND(NetCDFWriter):
+    """The n-D run's writer: the crash-safe snapshot-by-snapshot file of :class:`NetCDFWriter`
+    (the same creation, append, flush and close; the module docstring) with the variables of
+    :func:`schema_nd`.  An observer ``obs(t, u, rho)`` of :meth:`SimulationND.run` (u of shape
+    (n, *shape) [m/s], rho (*shape) [kg/m^n], user layout).
+
+    grid : :class:`bsrflow.numerics.grid_nd.GridND`; floor : ``floor(t) -> ϑ(t)`` [m];
+    attrs, expected_snapshots : as for :class:`NetCDFWriter`."""
+
+    def __init__(self, path, grid, floor, attrs=None, expected_snapshots=None):
+        self.path = os.fspath(path)
+        self.grid = grid
+        self.dim = int(grid.dim)
+        self.floor = floor
+        self.attrs = {"bsrflow_version": __version__, "scenario": f"layer_{self.dim}d", "created": _now()}
+        self.attrs.update(attrs or {})
+        self.attrs["status"] = "running"
+        self.expected = max(1, int(expected_snapshots or 1))
+        self.axes = ("x", "z") if self.dim == 2 else ("x", "y", "z")
+        coords = {a: np.asarray(grid.centres(k), dtype=float) for k, a in enumerate(self.axes)}
+        self._init_schema(schema_nd(self.dim), dict(zip(self.axes, grid.shape)), coords)
+        self.attrs["time_variables"] = " ".join(self._time_vars)
+        self.cell_volume = float(grid.cell_volume)
+        self.height = coords["z"] - grid.lower[-1]          # above the grid's floor
+        self._h5 = None
+        self._ds = {}
+        self.n = 0
+        self.closed = False
+
+    @classmethod
+    def resume(cls, path, keep_before, grid, floor, expected_snapshots=None):
+        """Reopen a partial n-D file, keep its snapshots with time < ``keep_before`` [s] (the
+        grid must match) and return a writer that appends after them."""
+        data, attrs = read_snapshots(path)
+        w = cls(path, grid, floor, expected_snapshots=expected_snapshots)
+        for a in w.axes:
+            if a not in data or not np.array_equal(data[a], w.coords[a]):
+                raise ValueError(f"{os.fspath(path)}: its grid ({a}) differs from this run's")
+        return w._keep(data, attrs, data["time"] < keep_before)
+
+    def __call__(self, t, u, rho, tracers=None):
+        """Append the snapshot at t [s] and flush it to disk (``tracers``: none in n-D)."""
+        if self.closed:
+            raise RuntimeError(f"{self.path}: writer is closed")
+        self._append(self._row(float(t), u, rho))
+
+    def _row(self, t, u, rho, tracers=None):
+        fl = float(self.floor(t))
+        u = np.asarray(u, dtype=float)
+        rho = np.asarray(rho, dtype=float)
+        mass = float(rho.sum()) * self.cell_volume
+        row = {"time": t, "rho": rho.copy(), "floor": fl, "mass": mass,
+               "mass_centre": float((rho * self.height).sum()) * self.cell_volume / mass + fl if mass > 0 else np.nan,
+               "kinetic_energy": 0.5 * float((rho * (u ** 2).sum(axis=0)).sum()) * self.cell_volume}
+        for a, comp in zip(self.axes, u):
+            row[f"u_{a}"] = comp.copy()
+        return row
 
 
 def read_snapshots(path):
@@ -279,18 +380,23 @@ def read_snapshots(path):
     import h5py
 
     with h5py.File(os.fspath(path), "r", locking=False) as h:
-        n = min(h[k].shape[0] for k in _TIME_VARS)       # equal unless a write was cut short
+        listed = h.attrs.get("time_variables")       # written by NetCDFWriterND
+        if listed is not None:
+            time_vars = (listed.decode() if isinstance(listed, bytes) else str(listed)).split()
+            names = time_vars + [str(c) for c in ("x", "y", "z") if c in h]
+        else:
+            time_vars, names = _TIME_VARS, list(SCHEMA)
+        n = min(h[k].shape[0] for k in time_vars)       # equal unless a write was cut short
         # a last snapshot cut short inside the flush can also show as the fill value NaN in a
         # value that a complete snapshot never leaves NaN (not top and mass_centre: those are
         # NaN in a complete snapshot of a run without tracers or without mass)
         while n > 0 and not all(np.all(np.isfinite(h[k][n - 1]))
-                                for k in ("time", "floor", "mass", "kinetic_energy", "rho", "u",
-                                          "tracer_height")):
+                                for k in time_vars if k not in ("top", "mass_centre")):
             n -= 1
         data = {}
-        for k in SCHEMA:
+        for k in names:
             arr = h[k][...]
-            data[k] = arr[:n] if k in _TIME_VARS else arr
+            data[k] = arr[:n] if k in time_vars else arr
         attrs = {}
         for k, v in h.attrs.items():
             if k.startswith("_NC"):

@@ -1,0 +1,131 @@
+"""VTK output of 2-D / 3-D fields for ParaView, beside the netCDF file (issue #19).
+
+:class:`VTKWriter` is an observer ``obs(t, u, rho)`` of
+:meth:`bsrflow.numerics.solver_nd.SimulationND.run`.  Every snapshot becomes one VTK XML
+unstructured-grid file ``<stem>_<k>.vtu`` (written by meshio: hexahedral cells in 3-D,
+quadrilaterals in 2-D, the grid's cells exactly) and the collection ``<stem>.pvd`` lists them with
+their times, so ParaView opens the whole run as one time series.
+
+Fields (cell data; VTK has no units attribute, so the unit is part of the name):
+
+=====================  ===========  =============================================
+name                   units        meaning
+=====================  ===========  =============================================
+``density [kg/m^3]``   kg/m³        ρ (2-D runs: ``density [kg/m^2]``, per unit depth)
+``velocity [m/s]``     m/s          (u_x, u_y, u_z) relative to the floor (2-D: u_y = 0)
+=====================  ===========  =============================================
+
+Coordinates [m]: the floor frame, z vertical (a 2-D run's (x, z) plane is put at y = 0, so z
+stays vertical in ParaView).  The times [s] are those of the ``.pvd`` collection (``timestep``);
+the floor's lab position ϑ(t) [m] is in the run's netCDF file (``floor``).
+
+Crash safety: each ``.vtu`` and the ``.pvd`` are written to a temporary file and renamed over
+the target, so a killed run leaves complete files for every snapshot written so far.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+__all__ = ["VTKWriter", "density_name", "VELOCITY_NAME"]
+
+VELOCITY_NAME = "velocity [m/s]"
+
+
+def density_name(dim: int) -> str:
+    """The density field's name in a ``dim``-D run's files."""
+    return f"density [kg/m^{dim}]"
+
+
+def _replace_atomically(path: Path, write) -> None:
+    tmp = path.with_name(f"{path.name}.tmp{os.getpid()}{path.suffix}")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+class VTKWriter:
+    """Write every snapshot of an n-D run as VTK (module docstring).
+
+    grid : :class:`bsrflow.numerics.grid_nd.GridND`; stem : output path without suffix (its
+    folder must exist).
+    Call ``writer(t, u, rho)`` at every save (u (n, *shape) [m/s], rho (*shape) [kg/m^n],
+    user layout).  ``files`` lists the ``.vtu`` written, ``pvd`` is the collection file."""
+
+    def __init__(self, grid, stem):
+        import meshio  # noqa: F401  (fail here, before the run, if it is missing)
+
+        self.grid = grid
+        self.dim = int(grid.dim)
+        self.stem = Path(os.fspath(stem))
+        if not self.stem.parent.is_dir():
+            raise ValueError(f"VTK output {self.stem}: folder {self.stem.parent} does not exist")
+        self.pvd = Path(f"{self.stem}.pvd")
+        self.files: list[Path] = []
+        self.times: list[float] = []
+        self._points, self._cells = self._mesh()
+
+    def _mesh(self):
+        """Points (the cell corners, as (x, y, z) [m]) and the cell connectivity of the grid."""
+        g = self.grid
+        edges = [g.lower[a] + np.arange(g.shape[a] + 1) * g.dx for a in range(self.dim)]
+        if self.dim == 2:
+            nx, nz = g.shape
+            X, Z = np.meshgrid(edges[0], edges[1], indexing="ij")
+            points = np.column_stack([X.ravel(), np.zeros(X.size), Z.ravel()])
+            idx = np.arange(points.shape[0]).reshape(nx + 1, nz + 1)
+            i, k = np.meshgrid(np.arange(nx), np.arange(nz), indexing="ij")
+            quads = np.stack([idx[i, k], idx[i + 1, k], idx[i + 1, k + 1], idx[i, k + 1]], axis=-1)
+            return points, [("quad", quads.reshape(-1, 4))]
+        nx, ny, nz = g.shape
+        X, Y, Z = np.meshgrid(*edges, indexing="ij")
+        points = np.column_stack([X.ravel(), Y.ravel(), Z.ravel()])
+        idx = np.arange(points.shape[0]).reshape(nx + 1, ny + 1, nz + 1)
+        i, j, k = np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij")
+        hexa = np.stack([idx[i, j, k], idx[i + 1, j, k], idx[i + 1, j + 1, k], idx[i, j + 1, k],
+                         idx[i, j, k + 1], idx[i + 1, j, k + 1], idx[i + 1, j + 1, k + 1], idx[i, j + 1, k + 1]],
+                        axis=-1)
+        return points, [("hexahedron", hexa.reshape(-1, 8))]
+
+    def cell_fields(self, u, rho) -> dict:
+        """The cell data of one snapshot, in the cells' order (C order of the grid's axes)."""
+        rho = np.asarray(rho, dtype=float)
+        u = np.asarray(u, dtype=float)
+        if rho.shape != tuple(self.grid.shape) or u.shape != (self.dim,) + tuple(self.grid.shape):
+            raise ValueError(f"VTK output: rho {rho.shape} / u {u.shape} do not match the grid {self.grid.shape}")
+        vel = np.zeros((rho.size, 3))
+        if self.dim == 2:
+            vel[:, 0], vel[:, 2] = u[0].ravel(), u[1].ravel()
+        else:
+            vel[:] = u.reshape(3, -1).T
+        return {density_name(self.dim): rho.ravel(), VELOCITY_NAME: vel}
+
+    def __call__(self, t, u, rho, tracers=None):
+        import meshio
+
+        t = float(t)
+        fields = self.cell_fields(u, rho)
+        k = len(self.files)
+        path = Path(f"{self.stem}_{k:06d}.vtu")
+        mesh = meshio.Mesh(self._points, self._cells, cell_data={n: [v] for n, v in fields.items()})
+        _replace_atomically(path, lambda p: meshio.write(p, mesh, file_format="vtu"))
+        self.files.append(path)
+        self.times.append(t)
+        self._write_pvd()
+
+    def _write_pvd(self):
+        rows = "\n".join(f'    <DataSet timestep={quoteattr(repr(t))} part="0" file={quoteattr(f.name)}/>'
+                         for t, f in zip(self.times, self.files))
+        text = ('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n  <Collection>\n'
+                f"{rows}\n  </Collection>\n</VTKFile>\n")
+        _replace_atomically(self.pvd, lambda p: p.write_text(text))
+
+    def close(self, status=None):
+        """Nothing is held open (each file is complete when written); for the observer protocol."""

@@ -1,0 +1,119 @@
+"""Issue #19: the n-D run's outputs: the netCDF file (NetCDFWriterND, the 1-D writer's crash-safe
+machinery with the n-D variables and their units), VTK files read back with meshio, and
+checkpoint/restart through the shared controller, bit for bit."""
+import numba
+import numpy as np
+import pytest
+import xarray as xr
+
+from bsrflow.io.netcdf import NetCDFWriterND, read_snapshots
+from bsrflow.io.vtk import VELOCITY_NAME, VTKWriter, density_name
+from bsrflow.numerics.solver import Scheme
+from bsrflow.numerics.solver_nd import SimulationND
+from bsrflow.physics.scenarios_nd import TappedLayer
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _one_thread():
+    n0 = numba.get_num_threads()
+    numba.set_num_threads(1)
+    yield
+    numba.set_num_threads(n0)
+
+
+def _layer(dim, **kw):
+    setup = TappedLayer(dim=dim, t_end=0.13, save_every=0.01, **kw)
+    grid = setup.grid()
+    sim = SimulationND(setup.model(), grid, Scheme.preset("seed", positivity=True),
+                       vacuum_density=1e-4 * setup.bottom_density)
+    u0, rho0 = setup.initial_state(grid)
+    return setup, grid, sim, u0, rho0
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_netcdf_nd_holds_every_snapshot_with_units(dim, tmp_path):
+    setup, grid, sim, u0, rho0 = _layer(dim)
+    path = tmp_path / f"layer{dim}.nc"
+    motion = setup.model().motion
+    with NetCDFWriterND(path, grid, lambda t: motion.state(t)[0], attrs={"config": "test"}) as w:
+        res = sim.run(u0, rho0, setup.t_end, save_every=setup.save_every, observers=[w])
+        w.close("ok")
+    ds = xr.open_dataset(path)
+    axes = ("x", "z") if dim == 2 else ("x", "y", "z")
+    assert ds["rho"].dims == ("time",) + axes
+    assert ds["rho"].attrs["units"] == f"kg m-{dim}"
+    assert ds["u_z"].attrs["units"] == "m s-1" and ds["z"].attrs["units"] == "m"
+    assert ds.attrs["status"] == "ok"
+    np.testing.assert_array_equal(ds["time"].values, res.t)
+    np.testing.assert_array_equal(ds["rho"].values, res.rho)
+    for k, a in enumerate(axes):
+        np.testing.assert_array_equal(ds[f"u_{a}"].values, res.u[:, k])
+    np.testing.assert_allclose(ds["mass"].values, res.mass(), rtol=1e-13)
+    np.testing.assert_allclose(ds["mass_centre"].values, res.centre_of_mass_height() + res.floor, rtol=1e-12)
+    ds.close()
+    data, attrs = read_snapshots(path)
+    assert data["rho"].shape == res.rho.shape and attrs["status"] == "ok"
+
+
+def test_netcdf_nd_resume_keeps_the_snapshots_before_the_restart(tmp_path):
+    setup, grid, sim, u0, rho0 = _layer(2)
+    path = tmp_path / "layer.nc"
+    floor = lambda t: setup.model().motion.state(t)[0]  # noqa: E731
+    w = NetCDFWriterND(path, grid, floor)
+    res = sim.run(u0, rho0, setup.t_end, save_every=setup.save_every, observers=[w])
+    w.close("ok")
+    w2 = NetCDFWriterND.resume(path, 0.055, grid, floor)
+    assert w2.n == int(np.sum(res.t < 0.055))
+    w2.close("ok")
+    data, _ = read_snapshots(path)
+    np.testing.assert_array_equal(data["rho"], res.rho[res.t < 0.055])
+    bad = SimulationND(_layer(3)[0].model(), _layer(3)[1])
+    with pytest.raises(ValueError, match="grid"):
+        NetCDFWriterND.resume(path, 0.055, bad.grid, floor)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_vtk_files_read_back_with_meshio_and_carry_units(dim, tmp_path):
+    import meshio
+
+    setup, grid, sim, u0, rho0 = _layer(dim)
+    w = VTKWriter(grid, tmp_path / "layer")
+    res = sim.run(u0, rho0, 0.03, save_every=0.01, observers=[w])
+    assert len(w.files) == len(res.t) == 4
+    for k, f in enumerate(w.files):
+        mesh = meshio.read(f)
+        assert mesh.points.shape[0] == int(np.prod(np.array(grid.shape) + 1))
+        assert mesh.cells[0].type == ("quad" if dim == 2 else "hexahedron")
+        assert mesh.cells[0].data.shape[0] == grid.n_cells
+        rho = mesh.cell_data[density_name(dim)][0]
+        vel = mesh.cell_data[VELOCITY_NAME][0]
+        np.testing.assert_array_equal(rho, res.rho[k].ravel())
+        np.testing.assert_array_equal(vel[:, -1], res.u[k, -1].ravel())
+        # a cell's centre is where the grid says: first cell at half a spacing from the corner
+        first = mesh.points[mesh.cells[0].data[0]].mean(axis=0)
+        np.testing.assert_allclose(first[[0, 2]], [grid.centres(0)[0], grid.centres(dim - 1)[0]])
+    pvd = (tmp_path / "layer.pvd").read_text()
+    assert pvd.count("<DataSet") == 4 and "layer_000003.vtu" in pvd
+    import re
+    times = [float(x) for x in re.findall(r'timestep="([^"]+)"', pvd)]
+    assert times == res.t.tolist()
+    with pytest.raises(ValueError, match="folder"):
+        VTKWriter(grid, tmp_path / "missing" / "layer")
+
+
+def test_nd_restart_from_a_checkpoint_event_is_bit_for_bit():
+    setup, grid, sim, u0, rho0 = _layer(3)
+    saves = np.round(np.arange(0.0, setup.t_end + 1e-12, setup.save_every), 12)
+    kept = {}
+    t_ck = 0.063
+
+    def grab(t, u, rho, steps):
+        kept.update(t=t, u=u.copy(), rho=rho.copy(), steps=steps)
+
+    # the run with the checkpoint event (a step ends there) is the reference, as in 1-D
+    full = sim.run(u0, rho0, setup.t_end, save_times=saves, extra_event_times=[t_ck], on_event=grab)
+    assert kept["t"] == t_ck and kept["steps"] > 0
+    rest = sim.run(kept["u"], kept["rho"], setup.t_end, t_start=t_ck, save_times=saves[saves >= t_ck],
+                   restart=True)
+    np.testing.assert_array_equal(rest.rho, full.rho[full.t >= t_ck])
+    np.testing.assert_array_equal(rest.u, full.u[full.t >= t_ck])
