@@ -34,6 +34,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 WORK = HERE / "work"
 RESULTS = HERE / "results"
+OUT = HERE          # where params.json and the settled-bed JSON go (--root moves all three)
 
 # ---------------------------------------------------------------- parameters
 D = 5.0e-3            # sphere diameter [m]
@@ -885,7 +886,7 @@ def summary() -> None:
         if not main:
             continue
         main.sort(key=lambda s: s["gamma"])
-        write_flight_table(HERE / fname, main, e_val)
+        write_flight_table(OUT / fname, main, e_val)
         pd_g = [s["gamma"] for s in main if s["period_doubled_last6"]]
         below = [s["gamma"] for s in main if not s["period_doubled_last6"] and (not pd_g or s["gamma"] < min(pd_g))]
         pdg = None
@@ -895,7 +896,7 @@ def summary() -> None:
                    "estimate": 0.5 * (min(pd_g) + lo) if lo is not None else min(pd_g)}
         pdg_by_e[key] = {"gammas": [s["gamma"] for s in main], "period_doubling": pdg}
     pdg = pdg_by_e.get("0.9", {}).get("period_doubling")
-    params = json.loads((HERE / "params.json").read_text()) if (HERE / "params.json").exists() else {}
+    params = json.loads((OUT / "params.json").read_text()) if (OUT / "params.json").exists() else {}
     params["gamma_list_main"] = pdg_by_e.get("0.9", {}).get("gammas")
     params["period_doubling_gamma"] = pdg
     params["period_doubling_gamma_exploratory_e0.5"] = pdg_by_e.get("0.5", {}).get("period_doubling")
@@ -909,7 +910,7 @@ def summary() -> None:
                                          "period_doubled", "period_doubled_last6", "com_period2",
                                          "max_overlap_pair_over_d",
                                          "max_overlap_floor_over_d")} for s in rows]
-    (HERE / "params.json").write_text(json.dumps(params, indent=2))
+    (OUT / "params.json").write_text(json.dumps(params, indent=2))
     print(json.dumps(pdg))
     # markdown table for the README
     print("| run | Γ | flight time per measured cycle [ms] | mean of last 6 [ms] | mean/T | even/odd split (last 6) |"
@@ -928,7 +929,7 @@ def summary() -> None:
 
 
 def write_params(extra: dict) -> None:
-    p = HERE / "params.json"
+    p = OUT / "params.json"
     params = json.loads(p.read_text()) if p.exists() else {}
     dt, ndump = timestep()
     params.update({
@@ -957,7 +958,7 @@ def write_params(extra: dict) -> None:
 
 
 def main(argv=None):
-    global E_REST
+    global E_REST, WORK, RESULTS, OUT
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--check", action="store_true", help="single-sphere / two-sphere contact checks")
     ap.add_argument("--settle", action="store_true", help="pour and settle the bed")
@@ -973,23 +974,28 @@ def main(argv=None):
     ap.add_argument("--post", metavar="RUN", help="re-run the post-processing of work/RUN")
     ap.add_argument("--summary", action="store_true")
     ap.add_argument("--settle-post", action="store_true", help="redo the packing statistics")
+    ap.add_argument("--root", metavar="DIR", help="write work/, results/ and the JSON files under DIR instead of "
+                    "this folder (bench/bench_bed.py: a timing run that leaves the committed data alone)")
     a = ap.parse_args(argv)
     E_REST = a.restitution
+    if a.root:
+        OUT = Path(a.root).resolve()
+        WORK, RESULTS = OUT / "work", OUT / "results"
     WORK.mkdir(exist_ok=True)
     RESULTS.mkdir(exist_ok=True)
     if a.check:
         res = {m: check_contacts(m) for m in ("walton_braun", "hooke")}
         name = "contact_check.json" if E_REST == 0.9 else f"contact_check_e{E_REST:g}.json"
-        (HERE / name).write_text(json.dumps(res, indent=2))
+        (OUT / name).write_text(json.dumps(res, indent=2))
         print(json.dumps(res, indent=2))
     if a.settle:
         res = settle(a.n, a.lateral, "walton_braun")
-        (HERE / f"settled_{tag(a.n, a.lateral)}.json").write_text(json.dumps(res, indent=2))
+        (OUT / f"settled_{tag(a.n, a.lateral)}.json").write_text(json.dumps(res, indent=2))
         write_params({f"settled_{tag(a.n, a.lateral)}": res})
         print(json.dumps(res, indent=2))
     if a.settle_post:
         res = settle_post(a.n, a.lateral)
-        (HERE / f"settled_{tag(a.n, a.lateral)}.json").write_text(json.dumps(res, indent=2))
+        (OUT / f"settled_{tag(a.n, a.lateral)}.json").write_text(json.dumps(res, indent=2))
         write_params({f"settled_{tag(a.n, a.lateral)}": res})
         print(json.dumps(res, indent=2))
     if a.gamma:

@@ -22,6 +22,7 @@ COMMAND_MODULES = [
     "bsrflow.analysis.energy",
     "bsrflow.analysis.stability",
     "bsrflow.analysis.compare_dump",
+    "bsrflow.analysis.compare_bed",
     "bsrflow.tools.plot_file",
     "bsrflow.tools.sweep",
     "bsrflow.io.commands",

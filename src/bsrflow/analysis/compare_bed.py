@@ -1,0 +1,317 @@
+"""``bsrflow compare-bed``: the vibrated bed's continuum against the committed LIGGGHTS data
+(issue #19; the model: :mod:`bsrflow.physics.granular_bed`, the data: reference/liggghts_bed).
+
+The continuum is the horizontally uniform bed, i.e. the 1-D limit of the 3-D bed (a
+horizontally uniform 3-D run equals it; the 3-D solver of this model is not built yet): the
+packing stress of the contact law plus the granular temperature of kinetic theory, nothing
+fitted.  For every Γ of the main LIGGGHTS runs (N = 2000, Walton–Braun, e = 0.9, frictionless)
+the same measures as the reference's post-processing (``reference/liggghts_bed/run_liggghts.py``):
+
+* flight time per cycle: the maximal intervals with the 1-ms moving average of the floor force
+  below 0.1 Mg, longer than 1 ms, each assigned to the cycle of its take-off; the steady value
+  is the mean over the last six cycles (cycles 5–10);
+* mass-centre RMS: the RMS difference of the mass-centre heights above the floor over the five
+  cycles after the three start-up cycles (3T ≤ t < 8T), in d;
+* period doubling: the even/odd split of the last six flights above 10 % of their mean with
+  alternating successive differences in at least 80 % of the cases; the Γ of the doubling is
+  the midpoint between the last single and the first doubled Γ.
+
+The exploratory e = 0.5 runs and the frictional run (μ = 0.5, spring–dashpot, Γ = 3) are
+compared too: the continuum has no friction, so the latter difference is the effect of
+friction, reported, not tuned away.  ``cost_s``: the continuum's wall time for the Γ = 3 run
+(11 cycles, the same simulated time as the LIGGGHTS run; this machine, this run) and
+LIGGGHTS's wall time from the committed summary (its run on this machine type, 2026-12-01,
+serial, see reference/liggghts_bed/README.md).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..physics.granular_bed import BedSetup
+
+__all__ = ["REFERENCE", "flights_from_force", "flight_per_cycle", "period_doubling_measure", "compare_bed",
+           "add_parser"]
+
+REFERENCE = Path(__file__).resolve().parents[3] / "reference" / "liggghts_bed"
+FLIGHT_SMOOTH_S, FLIGHT_THRESHOLD, FLIGHT_MIN_S = 1e-3, 0.1, 1e-3
+STARTUP_CYCLES = 3
+
+
+def flights_from_force(t, force, weight):
+    """Flights: maximal intervals with the 1-ms moving average of the floor force below 10 % of
+    the bed weight, longer than 1 ms (the reference's definition).  [(t_off, t_on)], t_on NaN
+    for a flight still going at the end."""
+    t = np.asarray(t, float)
+    dtp = t[1] - t[0]
+    w = max(1, int(round(FLIGHT_SMOOTH_S / dtp)))
+    off = np.convolve(np.asarray(force, float), np.ones(w) / w, mode="same") < FLIGHT_THRESHOLD * weight
+    out, i, n = [], 0, len(off)
+    while i < n:
+        if off[i]:
+            j = i
+            while j < n and off[j]:
+                j += 1
+            if i > 0 and j < n and t[j] - t[i] >= FLIGHT_MIN_S:
+                out.append((float(t[i]), float(t[j])))
+            elif i > 0 and j == n and t[j - 1] - t[i] >= FLIGHT_MIN_S:
+                out.append((float(t[i]), float("nan")))
+            i = j
+        else:
+            i += 1
+    return out
+
+
+def flight_per_cycle(flights, period, cycles):
+    """Flight time [s] of each cycle: the flight taking off in it (0 if none; NaN if unfinished)."""
+    out = np.zeros(cycles)
+    for t_off, t_on in flights:
+        c = int(t_off // period)
+        if 0 <= c < cycles:
+            out[c] = t_on - t_off
+    return out
+
+
+def period_doubling_measure(tau) -> dict:
+    """Even/odd split of the flight times and the alternation of their differences (the
+    reference's criterion: doubled when split > 10 % and alternation ≥ 80 %)."""
+    tau = np.asarray(tau, float)
+    tau = tau[~np.isnan(tau)]
+    if len(tau) < 4 or tau.mean() <= 0:
+        return {"even_odd_split": None, "period_doubled": False}
+    d = np.diff(tau)
+    split = float(abs(tau[0::2].mean() - tau[1::2].mean()) / tau.mean())
+    s = np.sign(d)
+    alt = float(np.mean(s[1:] * s[:-1] < 0)) if len(s) > 1 else 0.0
+    return {"even_odd_split": split, "sign_alternation_fraction": alt,
+            "period_doubled": bool(split > 0.10 and alt >= 0.8)}
+
+
+def _doubling_gamma(gammas, doubled):
+    """Midpoint between the last single Γ below the first doubled one and that one (None if none)."""
+    pd = [g for g, d in zip(gammas, doubled) if d]
+    if not pd:
+        return None
+    below = [g for g, d in zip(gammas, doubled) if not d and g < min(pd)]
+    return 0.5 * (min(pd) + max(below)) if below else min(pd)
+
+
+def _read_csv(path):
+    return np.genfromtxt(path, delimiter=",", names=True, skip_header=1)
+
+
+def _reference_case(ref: Path, gamma: float, tag: str):
+    """(trajectory, summary) of a LIGGGHTS run, or (None, None)."""
+    d = ref / "results" / f"gamma_{gamma:.2f}_N2000_L13d{tag}"
+    if not (d / "trajectory.csv").exists():
+        return None, None
+    return _read_csv(d / "trajectory.csv"), json.loads((d / "summary.json").read_text())
+
+
+def _compare_one(setup: BedSetup, ref: Path, tag: str, progress=None):
+    from ..numerics.bed_lagrangian import run_bed
+
+    s = setup
+    res = run_bed(s, progress=progress)
+    weight = s.n_spheres * s.sphere_mass * s.gravity
+    tau = flight_per_cycle(flights_from_force(res.t, res.floor_force, weight), s.period, s.cycles)
+    last6 = tau[-6:]
+    traj, summ = _reference_case(ref, s.gamma, tag)
+    case = {"gamma": s.gamma, "restitution": s.restitution,
+            "flight_time_s": float(np.nanmean(last6)), "flight_time_per_cycle_s": tau.tolist(),
+            "period_doubled": period_doubling_measure(last6)["period_doubled"],
+            "wall_time_s": res.wall_time, "steps": res.steps,
+            "mass_centre_mean_over_d": float(np.mean(res.mass_centre[res.t >= STARTUP_CYCLES * s.period])
+                                             / s.diameter),
+            "top_max_over_d": float(res.top.max() / s.diameter)}
+    if summ is not None:
+        dem_tau = float(summ["flight_time_mean_last6_s"])
+        sel = (traj["t_s"] >= STARTUP_CYCLES * s.period) & (traj["t_s"] < (STARTUP_CYCLES + 5) * s.period)
+        com = np.interp(traj["t_s"][sel], res.t, res.mass_centre)
+        case.update({
+            "dem_flight_time_s": dem_tau,
+            "flight_time_rel_diff": case["flight_time_s"] / dem_tau - 1.0,
+            "mass_centre_rms_over_d": float(math.sqrt(np.mean((com - traj["com_rel_m"][sel]) ** 2)) / s.diameter),
+            "dem_mass_centre_mean_over_d": float(summ["com_rel_mean_over_d"]),
+            "dem_top_max_over_d": float(summ["top99_rel_max_over_d"]),
+            "dem_period_doubled": bool(summ.get("period_doubled_last6", summ.get("period_doubled", False))),
+            "dem_wall_time_s": float(summ["wall_time_s"]),
+        })
+    return case, res, traj
+
+
+def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, progress=None, include_extra=True):
+    """Run the comparison (module docstring); returns the JSON-ready dict."""
+    ref = Path(reference)
+    table = _read_csv(ref / "flight_vs_gamma.csv")
+    params = json.loads((ref / "params.json").read_text())
+    base = BedSetup(n_spheres=2000, diameter=params["d_m"], density=params["rho_s_kg_m3"], stiffness=params["K_N_m"],
+                    restitution=params["e"], side=params["settled_N2000_L13d"]["lx_m"],
+                    gravity=params["g_m_s2"], frequency=params["f_Hz"],
+                    cycles=params["cycles_startup"] + params["cycles_measured"], n_cells=n_cells)
+    gammas = [float(g) for g in (table["gamma"] if gammas is None else gammas)]
+    cases, runs = [], {}
+    for g in gammas:
+        case, res, traj = _compare_one(base.with_(gamma=g), ref, "", progress)
+        cases.append(case)
+        runs[g] = (res, traj)
+    extra = []
+    if include_extra:
+        e05 = _read_csv(ref / "flight_vs_gamma_e0.5.csv")
+        for g in [float(x) for x in e05["gamma"]]:
+            case, _, _ = _compare_one(base.with_(gamma=g, restitution=0.5), ref, "_e0.5", progress)
+            case["dem"] = "LIGGGHTS Walton-Braun e = 0.5, frictionless"
+            extra.append(case)
+        for tag, what in (("_hooke_mu0.5", "LIGGGHTS spring-dashpot, friction 0.5 (the continuum has none)"),
+                          ("_hooke", "LIGGGHTS spring-dashpot, frictionless (the friction run's control)")):
+            case, _, _ = _compare_one(base.with_(gamma=3.0), ref, tag, progress)
+            case["dem"] = what
+            extra.append(case)
+    g3 = next((c for c in cases if c["gamma"] == 3.0), None)
+    out = {
+        "model": "packing stress + granular temperature (bsrflow.physics.granular_bed), horizontally uniform bed "
+                 "(1-D limit of the 3-D bed)",
+        "fitted_constants": {},
+        "inputs": {"phi_c": base.phi_c, "coordination": base.coordination,
+                   "note": "phi_c and Z of the settled LIGGGHTS bed (reference README), measured, not fitted"},
+        "n_cells": n_cells,
+        "cases": cases,
+        "extra_cases": extra,
+        "period_doubling_gamma": {
+            "continuum": _doubling_gamma([c["gamma"] for c in cases], [c["period_doubled"] for c in cases]),
+            "dem": (params.get("period_doubling_gamma") or {}).get("estimate"),
+            "note": "null: no period doubling in the Gamma range (the reference's frictionless e = 0.9 bed has none)"},
+        "period_doubling_gamma_e0.5": {
+            "continuum": _doubling_gamma([c["gamma"] for c in extra if c["restitution"] == 0.5],
+                                         [c["period_doubled"] for c in extra if c["restitution"] == 0.5]),
+            "dem": (params.get("period_doubling_gamma_exploratory_e0.5") or {}).get("estimate"),
+            "note": "the exploratory e = 0.5 runs (same bed, same K)"},
+        "cost_s": {"continuum": g3["wall_time_s"] if g3 else None,
+                   "dem": g3.get("dem_wall_time_s") if g3 else None,
+                   "note": "Gamma = 3, 11 cycles each; continuum measured in this run, LIGGGHTS from the committed "
+                           "summary of its serial run on this machine type (2026-12-01)"},
+    }
+    if figures:
+        _figures(out, runs, base, Path(figures))
+    return out
+
+
+def _figures(out, runs, base, folder):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    d = base.diameter
+    cases = out["cases"]
+    fig, ax = plt.subplots(figsize=(6, 4))
+    g = [c["gamma"] for c in cases]
+    ax.plot(g, [1e3 * c["flight_time_s"] for c in cases], "o-", label="continuum, e = 0.9")
+    ax.plot(g, [1e3 * c.get("dem_flight_time_s", np.nan) for c in cases], "s--", label="LIGGGHTS, e = 0.9")
+    e05 = [c for c in out["extra_cases"] if c["restitution"] == 0.5]
+    if e05:
+        ax.plot([c["gamma"] for c in e05], [1e3 * c["flight_time_s"] for c in e05], "^-", label="continuum, e = 0.5")
+        ax.plot([c["gamma"] for c in e05], [1e3 * c.get("dem_flight_time_s", np.nan) for c in e05], "v--",
+                label="LIGGGHTS, e = 0.5")
+    for c in cases:
+        tau = np.asarray(c["flight_time_per_cycle_s"][-6:]) * 1e3
+        ax.plot([c["gamma"]] * len(tau), tau, ".", color="C0", alpha=0.4)
+    ax.set_xlabel("Γ = aω²/g")
+    ax.set_ylabel("flight time per cycle [ms] (last six cycles)")
+    ax.set_title("Vibrated bed, f = 20 Hz: flight time against Γ")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(folder / "bed_flight_vs_gamma.png", dpi=120)
+    plt.close(fig)
+    if 3.0 in runs:
+        res, traj = runs[3.0]
+        fig, ax = plt.subplots(figsize=(7, 4))
+        ax.plot(res.t, res.mass_centre / d, label="continuum mass centre")
+        ax.plot(res.t, res.top / d, label="continuum top (99 % of the mass)")
+        if traj is not None:
+            ax.plot(traj["t_s"], traj["com_rel_m"] / d, "--", label="LIGGGHTS mass centre")
+            ax.plot(traj["t_s"], traj["top99_rel_m"] / d, "--", label="LIGGGHTS top (99 % of the centres)")
+        ax.set_xlabel("t [s] (floor vibrating from t = 0)")
+        ax.set_ylabel("height above the floor [d]")
+        ax.set_title("Γ = 3, e = 0.9, frictionless")
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        fig.savefig(folder / "bed_trajectory_gamma3.png", dpi=120)
+        plt.close(fig)
+        prof = REFERENCE / "results" / "gamma_3.00_N2000_L13d" / "profiles.csv"
+        fig, axes = plt.subplots(1, 4, figsize=(11, 4), sharey=True)
+        ref = _read_csv(prof) if prof.exists() else None
+        labels = {"phase0": "ωt = 0", "phase_pi2": "ωt = π/2", "phase_pi": "ωt = π", "phase_3pi2": "ωt = 3π/2"}
+        for axk, (key, (z, phi)) in zip(axes, res.profiles.items()):
+            axk.plot(phi, z / d, label="continuum (CG σ = d/2)")
+            if ref is not None:
+                axk.plot(ref[f"phi_{key}"], ref["z_rel_over_d"], "--", label="LIGGGHTS (CG σ = d/2)")
+            axk.set_title(labels[key])
+            axk.set_xlabel("solid fraction φ")
+        axes[0].set_ylabel("height above the floor [d]")
+        axes[0].legend(fontsize=7)
+        fig.suptitle("Γ = 3: solid fraction at four floor phases, mean over cycles 3–10")
+        fig.tight_layout()
+        fig.savefig(folder / "bed_profiles_gamma3.png", dpi=120)
+        plt.close(fig)
+
+
+def format_table(out) -> str:
+    rows = ["| Γ | flight continuum [ms] | flight LIGGGHTS [ms] | difference | mass-centre RMS [d] | period doubled "
+            "(continuum / LIGGGHTS) |", "|---|---|---|---|---|---|"]
+    for c in out["cases"] + out["extra_cases"]:
+        name = f"{c['gamma']:g}" + ("" if "dem" not in c else f" ({c['dem']})")
+        rows.append(f"| {name} | {1e3 * c['flight_time_s']:.1f} | {1e3 * c.get('dem_flight_time_s', float('nan')):.1f} | "
+                    f"{100 * c.get('flight_time_rel_diff', float('nan')):+.1f} % | "
+                    f"{c.get('mass_centre_rms_over_d', float('nan')):.2f} | "
+                    f"{'yes' if c['period_doubled'] else 'no'} / {'yes' if c.get('dem_period_doubled') else 'no'} |")
+    return "\n".join(rows)
+
+
+def add_parser(sub):
+    helptext = ("the vibrated bed's continuum (packing stress + granular temperature, horizontally uniform) "
+                "against the committed LIGGGHTS data")
+    p = sub.add_parser("compare-bed", help=helptext, description=helptext)
+    p.add_argument("--json", metavar="PATH", help="write the results as JSON (its folder must exist)")
+    p.add_argument("--figures", metavar="DIR", help="write the figures to DIR (created if missing; the folder "
+                                                     "holding it must exist)")
+    p.add_argument("--gammas", type=float, nargs="+", metavar="G",
+                   help="only these Γ of the main runs (default: all, 1.5 to 6)")
+    p.add_argument("--cells", type=int, default=200, metavar="N", help="Lagrangian cells over the bed (default 200)")
+    p.add_argument("--no-extra", action="store_true", help="skip the e = 0.5 and friction comparisons")
+    p.add_argument("--reference", default=os.fspath(REFERENCE), metavar="DIR",
+                   help="the LIGGGHTS data folder (default: the repository's reference/liggghts_bed)")
+    p.set_defaults(func=_main)
+
+
+def _main(args) -> int:
+    from ..io.paths import check_output_dir, check_output_file
+
+    if args.json:
+        check_output_file(args.json, "--json")
+    if args.figures:
+        check_output_dir(args.figures, "--figures", create=True)
+    ref = Path(args.reference)
+    if not (ref / "flight_vs_gamma.csv").exists():
+        raise ValueError(f"--reference {args.reference}: no flight_vs_gamma.csv there (the LIGGGHTS data folder)")
+    if not (4 <= args.cells <= 100000):
+        raise ValueError(f"--cells {args.cells} is outside the valid range [4, 100000]")
+    if args.gammas:
+        known = [float(g) for g in _read_csv(ref / "flight_vs_gamma.csv")["gamma"]]
+        for g in args.gammas:
+            if not any(abs(g - k) < 1e-9 for k in known):
+                raise ValueError(f"--gammas {g:g} is not one of the LIGGGHTS runs' Γ: {', '.join(f'{k:g}' for k in known)}")
+    t0 = time.perf_counter()
+    out = compare_bed(args.gammas, args.cells, ref, args.figures, include_extra=not args.no_extra)
+    print(format_table(out))
+    pd = out["period_doubling_gamma"]
+    print(f"period-doubling Γ: continuum {pd['continuum']}, LIGGGHTS {pd['dem']}; cost (Γ = 3): continuum "
+          f"{out['cost_s']['continuum']}, LIGGGHTS {out['cost_s']['dem']} s; total {time.perf_counter() - t0:.1f} s")
+    if args.json:
+        Path(args.json).write_text(json.dumps(out, indent=1))
+    return 0

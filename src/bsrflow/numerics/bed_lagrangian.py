@@ -1,0 +1,356 @@
+"""Lagrangian cells for the vibrated bed of :mod:`bsrflow.physics.granular_bed` (issue #19).
+
+The horizontally uniform bed is a column of ``n`` cells of equal mass per area μ = (N m/A)/n
+[kg/m²], between faces z_0 ≤ z_1 ≤ … ≤ z_n [m] (floor frame) that move with the material
+(ż_f = v_f): the density by characteristics, φ_j = μ/(ρ_s (z_{j+1} − z_j)) (seed (3.10)–(3.12)
+in mass coordinates).  Staggered: v on the faces, φ, θ and δ_max in the cells.
+
+One step of length Δt (``bed_step``; symplectic Euler for the faces, then the energy):
+
+1. the cells' stresses σ_j = p_j + q_j + σ_c,j at the current state (module
+   :mod:`~bsrflow.physics.granular_bed`; q_j from the current face velocities);
+2. interior faces and the top face: v_f += Δt ((σ_{f−1} − σ_f)/m_f − g_l(t)), σ_n = 0 above the top,
+   m_f the mass per area of the half cells beside the face; g_l = g + ϑ''(t);
+3. the bottom face (the bed's bottom on the floor): held (v_0 = 0, z_0 = 0) while the floor's
+   reaction R = σ_0 + m_0 g_l is ≥ 0, free otherwise (the floor cannot pull); a free bottom that
+   reaches the floor stops there;
+4. z_f += Δt v_f;
+5. θ_j += −(p_j + q_j)(v_{j+1} − v_j) Δt / (3μ/2) (compression work; the contact stress is
+   elastic, its hysteresis loss leaves the bed), then the conduction fluxes
+   H_f = −κ_f (θ_f − θ_{f−1}) / ((s_{f−1} + s_f)/2) between cells (none at the top; at the
+   floor the wall loss while the floor pushes), θ ≥ 0, then the collisional loss integrated
+   exactly over the step (θ̇ = −A θ^{3/2}: θ ← θ / (1 + A Δt √θ / 2)²), then the history pass
+   δ_max ← max(δ_max, δ) (0 where δ ≤ 0).
+
+Mass is exact (fixed μ per cell).  Time step: Δt = cfl · min_j(s_j)/c with c the contact wave
+speed at close packing (the fastest signal; the kinetic sound speed √(p'/ρ) and the diffusion
+numbers are checked by the driver), reduced by the driver where the conduction's explicit limit
+(Δt ≤ (3μ/2) s / (2 κ)) is tighter.
+
+:func:`bed_step_numpy` is the plain NumPy twin of :func:`bed_step` (tests: agreement to 1e-12).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from ..physics.granular_bed import (SQRT_PI, bulk_viscosity, conductivity, constitutive_numpy, dissipation,
+                                    g0_cs, kinetic_pressure, shear_viscosity, wall_loss)
+from ..physics.packing import history_update, packing_force, packing_force_numpy
+
+__all__ = ["bed_step", "bed_advance", "bed_step_numpy", "floor_reaction", "static_bed", "run_bed",
+           "BedResult"]
+
+
+@numba.njit(cache=True, inline="always")
+def _cell_coefficients(phi, theta, rho_s, d, e):
+    """(p [Pa], λ + 4μ/3 [Pa s]) of :mod:`~bsrflow.physics.granular_bed` with one g0 and one
+    square root (the same formulas as its functions, tested against them)."""
+    g = g0_cs(phi)
+    t = max(theta, 0.0)
+    st = math.sqrt(t)
+    ope = 1.0 + e
+    p = rho_s * phi * theta * (1.0 + 2.0 * ope * phi * g)
+    coll = rho_s * d * phi * phi * g * ope * st / SQRT_PI          # ρ_s d φ² g0 (1+e) √(θ/π)
+    lam = (4.0 / 3.0) * coll
+    mu_s = 10.0 * rho_s * d * st * SQRT_PI / (96.0 * ope * g) * (1.0 + 0.8 * ope * phi * g) ** 2 + 0.8 * coll
+    return p, lam + (4.0 / 3.0) * mu_s
+
+
+@numba.njit(cache=True)
+def bed_step(zf, vf, th, hist, sig, pq, flux, dt, gl, mu, rho_s, d, e, phi_c, k1, k2):
+    """One step (module docstring), in place.  Returns (floor reaction R [Pa], status); status
+    1: a cell's thickness reached 0."""
+    n = th.shape[0]
+    for j in range(n):
+        s = zf[j + 1] - zf[j]
+        phi = mu / (rho_s * s)
+        p, zeta = _cell_coefficients(phi, th[j], rho_s, d, e)
+        q = -zeta * (vf[j + 1] - vf[j]) / s
+        pq[j] = p + q
+        sig[j] = p + q + packing_force(d * (1.0 - phi_c / phi), hist[j], k1, k2)
+    m_half = 0.5 * mu
+    for f in range(1, n):
+        vf[f] += dt * ((sig[f - 1] - sig[f]) / mu - gl)
+    vf[n] += dt * (sig[n - 1] / m_half - gl)
+    reaction = 0.0
+    if zf[0] <= 0.0 and vf[0] <= 0.0 and sig[0] + m_half * gl >= 0.0:
+        reaction = sig[0] + m_half * gl
+        vf[0] = 0.0
+        zf[0] = 0.0
+    else:
+        vf[0] += dt * (-sig[0] / m_half - gl)
+    for f in range(n + 1):
+        zf[f] += dt * vf[f]
+    if zf[0] < 0.0:
+        zf[0] = 0.0
+        if vf[0] < 0.0:
+            vf[0] = 0.0
+    for j in range(n):
+        s = zf[j + 1] - zf[j]
+        if not s > 0.0:
+            return reaction, 1
+        th[j] += -pq[j] * (vf[j + 1] - vf[j]) * dt / (1.5 * mu)
+    flux[0] = 0.0
+    if reaction > 0.0:
+        flux[0] = -wall_loss(mu / (rho_s * (zf[1] - zf[0])), th[0], rho_s, e)
+    flux[n] = 0.0
+    for f in range(1, n):
+        sa = zf[f] - zf[f - 1]
+        sb = zf[f + 1] - zf[f]
+        phi = 0.5 * (mu / (rho_s * sa) + mu / (rho_s * sb))
+        t = 0.5 * (max(th[f - 1], 0.0) + max(th[f], 0.0))
+        flux[f] = -conductivity(phi, t, rho_s, d, e) * (th[f] - th[f - 1]) / (0.5 * (sa + sb))
+    for j in range(n):
+        t = th[j] + dt * (flux[j] - flux[j + 1]) / (1.5 * mu)
+        if t < 0.0:
+            t = 0.0
+        s = zf[j + 1] - zf[j]
+        phi = mu / (rho_s * s)
+        a = dissipation(phi, 1.0, rho_s, d, e) * s / (1.5 * mu)     # γ s/(3μ/2) = a θ^{3/2}
+        th[j] = t / (1.0 + 0.5 * a * dt * math.sqrt(t)) ** 2
+        hist[j] = history_update(d * (1.0 - phi_c / phi), hist[j])
+    return reaction, 0
+
+
+@numba.njit(cache=True)
+def floor_reaction(zf, vf, th, hist, mu, rho_s, d, e, phi_c, k1, k2, gl):
+    """The floor's reaction R [Pa] the next step would find (0 when the bottom is free)."""
+    if not (zf[0] <= 0.0 and vf[0] <= 0.0):
+        return 0.0
+    s = zf[1] - zf[0]
+    phi = mu / (rho_s * s)
+    t = th[0]
+    dv = vf[1] - vf[0]
+    q = -(bulk_viscosity(phi, t, rho_s, d, e) + (4.0 / 3.0) * shear_viscosity(phi, t, rho_s, d, e)) * dv / s
+    sig0 = kinetic_pressure(phi, t, rho_s, e) + q + packing_force(d * (1.0 - phi_c / phi), hist[0], k1, k2)
+    r = sig0 + 0.5 * mu * gl
+    return r if r > 0.0 else 0.0
+
+
+@numba.njit(cache=True)
+def bed_advance(zf, vf, th, hist, t, t_stop, dt_max, mu, rho_s, d, e, phi_c, k1, k2, g, amp, w, moving,
+                counters):
+    """Steps from t to exactly t_stop with Δt ≤ dt_max; the floor ϑ = a sin ωt when ``moving``
+    (g_l = g − a ω² sin ωt), at rest otherwise.  counters: [steps, status]; returns
+    (t, last floor reaction [Pa])."""
+    n = th.shape[0]
+    sig = np.empty(n)
+    pq = np.empty(n)
+    flux = np.empty(n + 1)
+    reaction = 0.0
+    while t < t_stop:
+        dt = dt_max
+        last = False
+        if t + dt >= t_stop:
+            dt = t_stop - t
+            last = True
+        gl = g - amp * w * w * math.sin(w * t) if moving else g
+        reaction, status = bed_step(zf, vf, th, hist, sig, pq, flux, dt, gl, mu, rho_s, d, e, phi_c, k1, k2)
+        counters[0] += 1
+        t = t_stop if last else t + dt
+        if status != 0:
+            counters[1] = status
+            return t, reaction
+    return t, reaction
+
+
+def bed_step_numpy(zf, vf, th, hist, dt, gl, mu, rho_s, d, e, phi_c, k1, k2):
+    """Plain NumPy twin of :func:`bed_step` (copies; returns (zf, vf, th, hist, reaction))."""
+    zf, vf, th, hist = (np.array(a, dtype=float) for a in (zf, vf, th, hist))
+    n = th.size
+    s = np.diff(zf)
+    phi = mu / (rho_s * s)
+    c = constitutive_numpy(phi, th, rho_s, d, e)
+    q = -(c["lambda"] + (4.0 / 3.0) * c["mu"]) * np.diff(vf) / s
+    pq = c["p"] + q
+    sig = pq + packing_force_numpy(d * (1.0 - phi_c / phi), hist, k1, k2)
+    vf[1:n] += dt * ((sig[:-1] - sig[1:]) / mu - gl)
+    vf[n] += dt * (sig[-1] / (0.5 * mu) - gl)
+    reaction = 0.0
+    if zf[0] <= 0.0 and vf[0] <= 0.0 and sig[0] + 0.5 * mu * gl >= 0.0:
+        reaction = sig[0] + 0.5 * mu * gl
+        vf[0] = 0.0
+        zf[0] = 0.0
+    else:
+        vf[0] += dt * (-sig[0] / (0.5 * mu) - gl)
+    zf += dt * vf
+    if zf[0] < 0.0:
+        zf[0] = 0.0
+        vf[0] = max(vf[0], 0.0)
+    s = np.diff(zf)
+    th = th - pq * np.diff(vf) * dt / (1.5 * mu)
+    flux = np.zeros(n + 1)
+    phi_new = mu / (rho_s * s)
+    if reaction > 0.0:
+        t0 = max(th[0], 0.0)
+        p0 = phi_new[0]
+        g0 = constitutive_numpy(p0, 0.0, rho_s, d, e)["g0"]
+        flux[0] = -(1.0 - e * e) * rho_s * p0 * g0 * t0 * np.sqrt(2.0 * t0 / np.pi)
+    phi_f = 0.5 * (phi_new[:-1] + phi_new[1:])
+    t_f = 0.5 * (np.maximum(th[:-1], 0.0) + np.maximum(th[1:], 0.0))
+    flux[1:n] = -constitutive_numpy(phi_f, t_f, rho_s, d, e)["kappa"] * np.diff(th) / (0.5 * (s[:-1] + s[1:]))
+    t = np.maximum(th + dt * (flux[:-1] - flux[1:]) / (1.5 * mu), 0.0)
+    a = constitutive_numpy(phi_new, np.ones(n), rho_s, d, e)["gamma"] * s / (1.5 * mu)
+    th = t / (1.0 + 0.5 * a * dt * np.sqrt(t)) ** 2
+    delta = d * (1.0 - phi_c / phi_new)
+    hist = np.where(delta > 0.0, np.maximum(hist, delta), 0.0)
+    return zf, vf, th, hist, reaction
+
+
+# ------------------------------------------------------------------------------------------------
+# the driver
+# ------------------------------------------------------------------------------------------------
+from dataclasses import dataclass, field  # noqa: E402
+
+
+@dataclass
+class BedResult:
+    """Output of :func:`run_bed` (SI units, floor frame unless said; t = 0 when the floor starts).
+
+    t [s] save times; mass_centre [m] height of the mass centre above the floor; top [m] height
+    below which 99 % of the mass lies (the reference's 'top99' of sphere centres); floor_force
+    [N] the floor's reaction on the bed (area × R); floor [m] ϑ(t) (lab); profiles: {phase name:
+    (z [m], φ)} the solid fraction coarse-grained with a Gaussian of σ = d/2 (as the reference's),
+    averaged over the cycles from 3 on at the floor phases ωt = 0, π/2, π, 3π/2; steps, wall_time
+    [s] (the compiled loop and the bookkeeping, compilation excluded), status."""
+
+    t: np.ndarray
+    mass_centre: np.ndarray
+    top: np.ndarray
+    floor_force: np.ndarray
+    floor: np.ndarray
+    profiles: dict
+    steps: int
+    wall_time: float
+    status: str = "ok"
+    info: dict = field(default_factory=dict)
+
+
+PHASES = {"phase0": 0.0, "phase_pi2": 0.25, "phase_pi": 0.5, "phase_3pi2": 0.75}
+"""Floor phases of the solid-fraction profiles (fraction of a cycle), as in the reference."""
+
+
+def coarse_grained_fraction(zf, phi, z, sigma):
+    """∫ φ(z') G_σ(z − z') dz' of the piecewise-constant φ on the cells [zf_j, zf_{j+1}] (exact)."""
+    from scipy.special import erf
+    a = (zf[None, :-1] - z[:, None]) / (math.sqrt(2.0) * sigma)
+    b = (zf[None, 1:] - z[:, None]) / (math.sqrt(2.0) * sigma)
+    return 0.5 * np.sum(phi[None, :] * (erf(b) - erf(a)), axis=1)
+
+
+def _compile_bed():
+    """Compile the loop once on a tiny bed (so that ``wall_time`` is the run's own)."""
+    zf = np.arange(5) * 1e-3
+    c = np.zeros(2, dtype=np.int64)
+    bed_advance(zf, np.zeros(5), np.zeros(4), np.zeros(4), 0.0, 1e-6, 1e-6, 1.0, 1000.0, 1e-3, 0.9, 0.6,
+                1.0, 1.0, 9.81, 0.0, 1.0, False, c)
+
+
+def static_bed(setup):
+    """The bed at rest on the resting floor (faces [m], δ_max [m] per cell): cell j carries the
+    weight above its middle, σ_j = (n − j − ½) μ g, on the packing law's loading branch
+    (δ_j = σ_j/K1, δ_max = δ), so φ_j = φ_c/(1 − δ_j/d); the kinetic pressure of θ_seed is
+    neglected (it is ~1e-9 of the stress).  The floor then carries the whole weight."""
+    s = setup
+    n = s.n_cells
+    mu = s.mass_per_area / n
+    k1 = s.layer_stiffness / s.area
+    sigma = (n - np.arange(n) - 0.5) * mu * s.gravity
+    delta = sigma / k1
+    phi = s.phi_c / (1.0 - delta / s.diameter)
+    zf = np.concatenate([[0.0], np.cumsum(mu / (s.density * phi))])
+    return zf, delta.copy()
+
+
+def run_bed(setup, progress=None) -> BedResult:
+    """Run the bed of ``setup`` (:class:`bsrflow.physics.granular_bed.BedSetup`): from the bed at
+    rest (:func:`static_bed`, θ = θ_seed), optionally ``setup.settle`` s more on the resting floor,
+    then vibrate for ``setup.cycles`` cycles from t = 0 (the floor's velocity jumps to aω: the bed's
+    velocity relative to the floor by −aω).  ``progress(t)`` is called at every save.  A cell
+    collapsing stops the run with :class:`bsrflow.numerics.solver.SimulationError`."""
+    import time
+
+    from .solver import SimulationError
+
+    s = setup
+    n = s.n_cells
+    mu = s.mass_per_area / n
+    k1 = s.layer_stiffness / s.area
+    k2 = k1 / s.restitution ** 2
+    zf, hist = static_bed(s)
+    vf = np.zeros(n + 1)
+    th = np.full(n, float(s.theta_seed))
+    c = s.contact_wave_speed()
+    counters = np.zeros(2, dtype=np.int64)
+    args = (mu, s.density, s.diameter, s.restitution, s.phi_c, k1, k2, s.gravity, s.amplitude, s.omega)
+    _compile_bed()
+
+    def dt_for_state():
+        smin = float(np.min(np.diff(zf)))
+        dt = s.cfl * smin / c
+        phi = mu / (s.density * np.diff(zf))
+        kap = constitutive_numpy(phi, th, s.density, s.diameter, s.restitution)["kappa"]
+        kmax = float(np.max(kap))
+        if kmax > 0.0:
+            dt = min(dt, 0.25 * 1.5 * mu * smin / kmax)
+        return dt
+
+    def advance(t0, t1, moving):
+        t = t0
+        t, r = bed_advance(zf, vf, th, hist, t, t1, dt_for_state(), *args, moving, counters)
+        if counters[1]:
+            raise SimulationError(f"bed run stopped at t = {t:.6g} s: a cell's thickness reached 0 "
+                                  f"({int(counters[0])} steps)", None, t, None, "stopped")
+        return r
+
+    wall = time.perf_counter()
+    if s.settle > 0.0:
+        t_set = -float(s.settle)
+        k_set = max(1, int(math.ceil(s.settle / 1e-3)))
+        for k in range(k_set):
+            advance(t_set + k * s.settle / k_set, t_set + (k + 1) * s.settle / k_set, False)
+    vf -= s.amplitude * s.omega
+    n_save = int(round(s.t_end / s.save_every))
+    ts = np.arange(n_save + 1) * s.save_every
+    com = np.empty(n_save + 1)
+    top = np.empty(n_save + 1)
+    force = np.empty(n_save + 1)
+    cum_frac = (np.arange(n + 1)) / n
+    prof_z = np.arange(-1.0, 30.0 + 1e-9, 0.1) * s.diameter
+    prof_sum = {k: np.zeros_like(prof_z) for k in PHASES}
+    prof_n = dict.fromkeys(PHASES, 0)
+    period = s.period
+    phase_idx = {}
+    for name, frac in PHASES.items():
+        for cyc in range(3, s.cycles):
+            phase_idx[int(round((cyc + frac) * period / s.save_every))] = name
+
+    def record(i):
+        zc = 0.5 * (zf[1:] + zf[:-1])
+        com[i] = float(np.mean(zc))
+        top[i] = float(np.interp(0.99, cum_frac, zf))
+        gl = s.gravity - s.amplitude * s.omega ** 2 * math.sin(s.omega * ts[i])
+        force[i] = floor_reaction(zf, vf, th, hist, mu, s.density, s.diameter, s.restitution, s.phi_c, k1, k2,
+                                  gl) * s.area
+        if i in phase_idx:
+            name = phase_idx[i]
+            phi = mu / (s.density * np.diff(zf))
+            prof_sum[name] += coarse_grained_fraction(zf, phi, prof_z, 0.5 * s.diameter)
+            prof_n[name] += 1
+        if progress is not None:
+            progress(ts[i])
+
+    record(0)
+    for i in range(1, n_save + 1):
+        advance(ts[i - 1], ts[i], True)
+        record(i)
+    wall = time.perf_counter() - wall
+    profiles = {k: (prof_z, prof_sum[k] / max(prof_n[k], 1)) for k in PHASES}
+    floor = s.amplitude * np.sin(s.omega * ts)
+    return BedResult(ts, com, top, force, floor, profiles, int(counters[0]), wall,
+                     info={"n_cells": n, "layer_stiffness_N_m": s.layer_stiffness,
+                           "contact_wave_speed_m_s": c})

@@ -1,0 +1,247 @@
+"""The vibrated bed of issue #19 as a continuum: the packing stress plus a granular temperature.
+
+Why a temperature.  The packing continuum alone (the contact law's stress, zero below contact,
+:mod:`bsrflow.physics.packing`) has no pressure in the dilute state: run as the horizontally
+uniform bed it lands as a block and bounces off the floor (flight 41 ms of the 50 ms cycle at
+Γ = 3 against LIGGGHTS's 27 ms, ``bench/check_bed_1d.py``), where the DEM bed dilates,
+fluidises and lands grain by grain.  The grains' random motion carries momentum and energy; its
+variance θ = ⟨C²⟩/3 [m²/s²] (the granular temperature) is the extra field.  The collisional
+relations are the standard kinetic theory of smooth inelastic spheres (Lun, Savage, Jeffrey and
+Chepurniy 1984, in the form used by Gidaspow 1994, Multiphase Flow and Fluidization), with
+the Carnahan–Starling contact value g0; only d, ρ_s and the contact law's restitution e enter.
+
+Fields (per unit area of the bed, floor frame): solid fraction φ, velocity u [m/s], θ [m²/s²],
+and the history δ_max [m] of the packing law.  With ρ = ρ_s φ [kg/m³]:
+
+    ρ (u_t + u u_z) = −ρ (g + ϑ''(t)) − ∂σ/∂z,      σ = p + σ_c + q          (momentum)
+    (3/2) ρ (θ_t + u θ_z) = −(p + q) u_z + ∂/∂z (κ ∂θ/∂z) − γ             (fluctuation energy)
+
+    g0(φ) = (1 − φ/2)/(1 − φ)³                                             (Carnahan–Starling)
+    p = ρ_s φ θ [1 + 2 (1 + e) φ g0]                                       [Pa]
+    λ = (4/3) ρ_s d φ² g0 (1 + e) √(θ/π)                                  (bulk viscosity) [Pa s]
+    μ = (10 ρ_s d √(πθ)) / (96 (1 + e) g0) [1 + (4/5)(1 + e) φ g0]² + (4/5) ρ_s d φ² g0 (1 + e) √(θ/π)
+    q = −(λ + 4μ/3) u_z                                                   (normal viscous stress)
+    κ = (150 ρ_s d √(πθ)) / (384 (1 + e) g0) [1 + (6/5)(1 + e) φ g0]² + 2 ρ_s d φ² g0 (1 + e) √(θ/π)
+    γ = 12 (1 − e²) g0 ρ_s φ² θ^{3/2} / (d √π)                            (collisional loss) [W/m³]
+
+The packing (contact) stress σ_c: the Walton–Braun law of :mod:`bsrflow.physics.packing` per
+layer of thickness d of the packing, for an isotropic packing of solid fraction φ_c with Z
+contacts per sphere compressed uniaxially and affinely (a contact along n shortens by
+d ε n_z²): σ_zz = n_c ⟨f l n_z²⟩ = (Z n/2) K d² ε ⟨n_z⁴⟩ = (3 Z φ_c K / (5 π d)) ε, n = 6φ_c/(πd³),
+with ε = 1 − φ_c/φ (so δ = d ε is the layer's overlap).  As a force per layer of area A:
+K_eff = 3 Z φ_c K A / (5 π d²) [N/m], unloading K_eff/e², history reset where δ ≤ 0.
+Units: σ_c = WB(δ, δ_max)/A [Pa].
+
+Floor (the vibrated plate, z = 0 in the floor frame; the floor moves as ϑ(t) = a sin ωt):
+impermeable while it pushes, and it cannot pull (Shattuck 2007's cavitation condition): the bed's
+bottom is held at z = 0 while the reaction is ≥ 0, free otherwise; the energy lost in the
+collisions with the floor (restitution e_w, the same law) is the flux
+(1 − e_w²) ρ_s φ g0 θ √(2θ/π) into the floor while in contact.  Top: free surface (σ = 0,
+no heat flux).
+
+What is kept and dropped.  Kept: the contact law's K, e, d, ρ_s; the settled packing's φ_c and Z
+(measured on the DEM's own settled bed, reference/liggghts_bed: 0.636 and 5.39), N and g.
+Dropped: friction and rotation, anisotropy of θ, the Knudsen layer at the dilute top and at the
+floor (the kinetic relations are those of a dense, near-equilibrium gas), lateral structure (the
+bed is horizontally uniform: this is the 1-D limit of the 3-D bed, which a horizontally uniform
+3-D run equals).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numba
+import numpy as np
+
+__all__ = ["BedSetup", "g0_cs", "kinetic_pressure", "bulk_viscosity", "shear_viscosity", "conductivity",
+           "dissipation", "wall_loss", "constitutive_numpy"]
+
+SQRT_PI = math.sqrt(math.pi)
+
+
+@numba.njit(cache=True, inline="always")
+def g0_cs(phi):
+    """Carnahan–Starling contact value of the pair distribution, (1 − φ/2)/(1 − φ)³ (capped at
+    φ = 0.95, far above close packing, where the contact stress rules)."""
+    p = min(phi, 0.95)
+    return (1.0 - 0.5 * p) / (1.0 - p) ** 3
+
+
+@numba.njit(cache=True, inline="always")
+def kinetic_pressure(phi, theta, rho_s, e):
+    """p = ρ_s φ θ [1 + 2(1 + e) φ g0] [Pa]."""
+    return rho_s * phi * theta * (1.0 + 2.0 * (1.0 + e) * phi * g0_cs(phi))
+
+
+@numba.njit(cache=True, inline="always")
+def bulk_viscosity(phi, theta, rho_s, d, e):
+    """λ = (4/3) ρ_s d φ² g0 (1 + e) √(θ/π) [Pa s]."""
+    return (4.0 / 3.0) * rho_s * d * phi * phi * g0_cs(phi) * (1.0 + e) * math.sqrt(max(theta, 0.0)) / SQRT_PI
+
+
+@numba.njit(cache=True, inline="always")
+def shear_viscosity(phi, theta, rho_s, d, e):
+    """μ (module docstring) [Pa s]."""
+    g = g0_cs(phi)
+    st = math.sqrt(max(theta, 0.0))
+    return (10.0 * rho_s * d * st * SQRT_PI / (96.0 * (1.0 + e) * g) * (1.0 + 0.8 * (1.0 + e) * phi * g) ** 2
+            + 0.8 * rho_s * d * phi * phi * g * (1.0 + e) * st / SQRT_PI)
+
+
+@numba.njit(cache=True, inline="always")
+def conductivity(phi, theta, rho_s, d, e):
+    """κ (module docstring) [kg/(m s)]: the flux of fluctuation energy is −κ ∂θ/∂z [W/m²]."""
+    g = g0_cs(phi)
+    st = math.sqrt(max(theta, 0.0))
+    return (150.0 * rho_s * d * st * SQRT_PI / (384.0 * (1.0 + e) * g) * (1.0 + 1.2 * (1.0 + e) * phi * g) ** 2
+            + 2.0 * rho_s * d * phi * phi * g * (1.0 + e) * st / SQRT_PI)
+
+
+@numba.njit(cache=True, inline="always")
+def dissipation(phi, theta, rho_s, d, e):
+    """γ = 12 (1 − e²) g0 ρ_s φ² θ^{3/2} / (d √π) [W/m³]."""
+    t = max(theta, 0.0)
+    return 12.0 * (1.0 - e * e) * g0_cs(phi) * rho_s * phi * phi * t * math.sqrt(t) / (d * SQRT_PI)
+
+
+@numba.njit(cache=True, inline="always")
+def wall_loss(phi, theta, rho_s, e_w):
+    """Energy flux into the floor from the collisions with it, (1 − e_w²) ρ_s φ g0 θ √(2θ/π) [W/m²]."""
+    t = max(theta, 0.0)
+    return (1.0 - e_w * e_w) * rho_s * phi * g0_cs(phi) * t * math.sqrt(2.0 * t / math.pi)
+
+
+def constitutive_numpy(phi, theta, rho_s, d, e):
+    """NumPy twin of the relations above (arrays): dict of g0, p, λ, μ, κ, γ."""
+    phi = np.asarray(phi, float)
+    t = np.maximum(np.asarray(theta, float), 0.0)
+    p_ = np.minimum(phi, 0.95)
+    g = (1.0 - 0.5 * p_) / (1.0 - p_) ** 3
+    st = np.sqrt(t)
+    return {
+        "g0": g,
+        "p": rho_s * phi * t * (1.0 + 2.0 * (1.0 + e) * phi * g),
+        "lambda": (4.0 / 3.0) * rho_s * d * phi ** 2 * g * (1.0 + e) * st / SQRT_PI,
+        "mu": (10.0 * rho_s * d * st * SQRT_PI / (96.0 * (1.0 + e) * g) * (1.0 + 0.8 * (1.0 + e) * phi * g) ** 2
+               + 0.8 * rho_s * d * phi ** 2 * g * (1.0 + e) * st / SQRT_PI),
+        "kappa": (150.0 * rho_s * d * st * SQRT_PI / (384.0 * (1.0 + e) * g) * (1.0 + 1.2 * (1.0 + e) * phi * g) ** 2
+                  + 2.0 * rho_s * d * phi ** 2 * g * (1.0 + e) * st / SQRT_PI),
+        "gamma": 12.0 * (1.0 - e * e) * g * rho_s * phi ** 2 * t * st / (d * SQRT_PI),
+    }
+
+
+@dataclass(frozen=True)
+class BedSetup:
+    """The vibrated bed (SI units; defaults: reference/liggghts_bed/params.json, the LIGGGHTS
+    runs' bed).
+
+    n_spheres N, diameter d [m], density ρ_s [kg/m³], stiffness K [N/m] (the contact law's
+    loading stiffness; the LIGGGHTS runs use a reduced K and so does the continuum), restitution
+    e (spheres and floor), side L [m] of the laterally periodic box, phi_c φ_c and
+    coordination Z of the settled packing, gravity g [m/s²], frequency f [Hz], gamma Γ = aω²/g
+    of the floor ϑ(t) = a sin ωt (starting at t = 0 moving up at aω, as the LIGGGHTS deck),
+    cycles (the run lasts cycles/f), settle [s]: time on the resting floor before t = 0 after
+    the bed at rest (:func:`bsrflow.numerics.bed_lagrangian.static_bed`; 0 by default); numerics:
+    n_cells (Lagrangian cells over the bed), cfl (of the contact wave speed), theta_seed
+    [m²/s²] (the temperature at the start, the DEM bed's residual motion; 0 is an absorbing
+    state: without a seed and without shocks θ stays 0), save_every [s].  200 cells and
+    cfl 0.4: the Γ = 3 comparison's flight time and mass-centre RMS change by 0.1 % and 0.01 d
+    against 400 cells (docs/model.md).
+    """
+
+    n_spheres: int = 2000
+    diameter: float = 0.005
+    density: float = 1200.0
+    stiffness: float = 5e4
+    restitution: float = 0.9
+    side: float = 0.065
+    phi_c: float = 0.636
+    coordination: float = 5.39
+    gravity: float = 9.81
+    frequency: float = 20.0
+    gamma: float = 3.0
+    cycles: int = 11
+    settle: float = 0.0
+    n_cells: int = 200
+    cfl: float = 0.4
+    theta_seed: float = 1e-6
+    save_every: float = 1e-4
+
+    def __post_init__(self):
+        for name, lo, hi in (("diameter", 0.0, 1.0), ("density", 0.0, 1e5), ("stiffness", 0.0, 1e12),
+                             ("side", 0.0, 100.0), ("gravity", 0.0, 1e3), ("frequency", 0.0, 1e4),
+                             ("save_every", 0.0, 1.0)):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and lo < v <= hi):
+                raise ValueError(f"{name} = {v!r} is outside the valid range ({lo:g}, {hi:g}]")
+        for name, lo, hi in (("gamma", 0.0, 20.0), ("settle", 0.0, 10.0), ("theta_seed", 0.0, 1.0)):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and lo <= v <= hi):
+                raise ValueError(f"{name} = {v!r} is outside the valid range [{lo:g}, {hi:g}]")
+        if not (0.0 < self.restitution < 1.0):
+            raise ValueError(f"restitution = {self.restitution!r} is outside the valid range (0, 1)")
+        if not (0.0 < self.phi_c < 0.74):
+            raise ValueError(f"phi_c = {self.phi_c!r} is outside the valid range (0, 0.74)")
+        if not (0.0 < self.coordination <= 12.0):
+            raise ValueError(f"coordination = {self.coordination!r} is outside the valid range (0, 12]")
+        if not (0.0 < self.cfl <= 0.5):
+            raise ValueError(f"cfl = {self.cfl!r} is outside the valid range (0, 0.5]")
+        for name, lo in (("n_spheres", 1), ("cycles", 1), ("n_cells", 4)):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, np.integer)) and not isinstance(v, bool) and lo <= v <= 10_000_000):
+                raise ValueError(f"{name} = {v!r} is outside the valid range: integers in [{lo}, 1e7]")
+
+    # derived ------------------------------------------------------------------------------------
+    @property
+    def omega(self) -> float:
+        return 2.0 * math.pi * self.frequency
+
+    @property
+    def amplitude(self) -> float:
+        """a = Γ g/ω² [m]."""
+        return self.gamma * self.gravity / self.omega ** 2
+
+    @property
+    def area(self) -> float:
+        return self.side ** 2
+
+    @property
+    def sphere_mass(self) -> float:
+        return self.density * math.pi / 6.0 * self.diameter ** 3
+
+    @property
+    def mass_per_area(self) -> float:
+        """N m / A [kg/m²]."""
+        return self.n_spheres * self.sphere_mass / self.area
+
+    @property
+    def rest_height(self) -> float:
+        """Height of the unstressed bed at φ_c [m]."""
+        return self.mass_per_area / (self.density * self.phi_c)
+
+    @property
+    def layer_stiffness(self) -> float:
+        """K_eff = 3 Z φ_c K A / (5 π d²) [N/m] (module docstring)."""
+        return 3.0 * self.coordination * self.phi_c * self.stiffness * self.area / (5.0 * math.pi * self.diameter ** 2)
+
+    def contact_wave_speed(self) -> float:
+        """Sound speed of the packing on the unloading branch, √(K_eff d/(A e² ρ_s φ_c)) [m/s]."""
+        return math.sqrt(self.layer_stiffness * self.diameter / (self.area * self.restitution ** 2
+                                                                  * self.density * self.phi_c))
+
+    @property
+    def period(self) -> float:
+        return 1.0 / self.frequency
+
+    @property
+    def t_end(self) -> float:
+        return self.cycles / self.frequency
+
+    def with_(self, **kw) -> "BedSetup":
+        from dataclasses import replace
+        return replace(self, **kw)
+
+    def to_dict(self) -> dict:
+        return asdict(self)

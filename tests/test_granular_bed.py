@@ -1,0 +1,122 @@
+"""Issue #19, the vibrated bed's continuum (packing stress + granular temperature): compiled
+pieces against their NumPy twins, the floor that cannot pull, static equilibrium, input checks,
+the flight and period-doubling measures, and `bsrflow compare-bed` end to end (short)."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+from bsrflow.analysis.compare_bed import (flight_per_cycle, flights_from_force, period_doubling_measure)
+from bsrflow.cli import main
+from bsrflow.numerics.bed_lagrangian import bed_step, bed_step_numpy, run_bed
+from bsrflow.physics import granular_bed as gb
+from bsrflow.physics.granular_bed import BedSetup
+
+
+def test_constitutive_relations_match_numpy():
+    rng = np.random.default_rng(3)
+    phi = rng.uniform(0.01, 0.7, 50)
+    th = rng.uniform(0.0, 0.5, 50)
+    ref = gb.constitutive_numpy(phi, th, 1200.0, 0.005, 0.9)
+    for name, fn, args in (("p", gb.kinetic_pressure, (1200.0, 0.9)), ("lambda", gb.bulk_viscosity, (1200.0, 0.005, 0.9)),
+                           ("mu", gb.shear_viscosity, (1200.0, 0.005, 0.9)), ("kappa", gb.conductivity, (1200.0, 0.005, 0.9)),
+                           ("gamma", gb.dissipation, (1200.0, 0.005, 0.9))):
+        got = np.array([fn(p, t, *args) for p, t in zip(phi, th)])
+        np.testing.assert_allclose(got, ref[name], rtol=1e-12, atol=0.0)
+    # the dilute limit of the pressure is the ideal gas ρ θ; g0 -> 1
+    assert gb.g0_cs(1e-9) == pytest.approx(1.0)
+    assert gb.kinetic_pressure(1e-6, 0.1, 1200.0, 0.9) == pytest.approx(1200.0 * 1e-6 * 0.1, rel=1e-5)
+
+
+def _state(rng, n=30, on_floor=True):
+    s = BedSetup()
+    mu = s.mass_per_area / n
+    h = s.rest_height / n
+    thick = h * rng.uniform(0.9, 1.3, n)             # compressed and dilated cells
+    zf = np.concatenate([[0.0], np.cumsum(thick)])
+    if not on_floor:
+        zf += 1e-4
+    vf = rng.normal(0.0, 0.05, n + 1)
+    if on_floor:
+        vf[0] = 0.0
+    th = rng.uniform(0.0, 0.02, n)
+    hist = np.where(thick < h, s.diameter * (1 - thick / h) * rng.uniform(1.0, 1.5, n), 0.0)
+    k1 = s.layer_stiffness / s.area
+    return s, mu, zf, vf, th, hist, k1
+
+
+@pytest.mark.parametrize("on_floor", [True, False])
+def test_compiled_step_matches_numpy(on_floor):
+    rng = np.random.default_rng(11 if on_floor else 12)
+    s, mu, zf, vf, th, hist, k1 = _state(rng, on_floor=on_floor)
+    k2 = k1 / s.restitution ** 2
+    dt, gl = 2e-6, s.gravity + 30.0
+    ref = bed_step_numpy(zf, vf, th, hist, dt, gl, mu, s.density, s.diameter, s.restitution, s.phi_c, k1, k2)
+    n = th.size
+    z, v, t, hh = zf.copy(), vf.copy(), th.copy(), hist.copy()
+    r, status = bed_step(z, v, t, hh, np.empty(n), np.empty(n), np.empty(n + 1), dt, gl, mu, s.density, s.diameter,
+                         s.restitution, s.phi_c, k1, k2)
+    assert status == 0
+    for a, b in zip((z, v, t, hh, r), ref):
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-300)
+    assert (r > 0) == on_floor
+
+
+def test_resting_bed_is_held_by_its_weight_and_the_floor_never_pulls():
+    s = BedSetup(gamma=0.0, cycles=2, n_cells=40, theta_seed=0.0)
+    r = run_bed(s)
+    weight = s.n_spheres * s.sphere_mass * s.gravity
+    # static equilibrium: the floor carries the bed's weight (averaged over the residual contact
+    # oscillation of the undamped settling)
+    assert np.mean(r.floor_force) == pytest.approx(weight, rel=2e-3)
+    # close packing: the mass centre at half the rest height, less the compression under gravity
+    assert r.mass_centre.mean() == pytest.approx(0.5 * s.rest_height, rel=1e-3)
+    v = run_bed(BedSetup(gamma=3.0, cycles=4, n_cells=40))
+    assert np.all(v.floor_force >= 0.0)
+    assert np.any(v.floor_force == 0.0)                     # it flies
+    assert np.all(np.isfinite(v.mass_centre)) and v.status == "ok"
+
+
+@pytest.mark.parametrize("kw, field", [(dict(restitution=1.0), "restitution"), (dict(gamma=-1.0), "gamma"),
+                                       (dict(n_cells=2), "n_cells"), (dict(cfl=0.9), "cfl"),
+                                       (dict(phi_c=0.8), "phi_c"), (dict(side=0.0), "side")])
+def test_bed_setup_refuses_bad_values_in_one_line(kw, field):
+    with pytest.raises(ValueError) as err:
+        BedSetup(**kw)
+    assert str(err.value).startswith(field) and "\n" not in str(err.value)
+
+
+def test_flight_and_period_doubling_measures():
+    t = np.arange(0, 0.2, 1e-4)
+    period = 0.05
+    # the floor carries the weight except for 20 ms (cycles 0, 2) and 30 ms (cycles 1, 3)
+    force = np.ones_like(t)
+    for c, dur in enumerate((0.020, 0.030, 0.020, 0.030)):
+        force[(t >= c * period + 0.005) & (t < c * period + 0.005 + dur)] = 0.0
+    tau = flight_per_cycle(flights_from_force(t, force, 1.0), period, 4)
+    # the 1-ms moving average shortens a sharp flight by 0.9 ms (below 10 % of the weight)
+    np.testing.assert_allclose(tau, np.array([0.020, 0.030, 0.020, 0.030]) - 0.0009, atol=1.5e-4)
+    assert period_doubling_measure(tau)["period_doubled"]
+    assert not period_doubling_measure([0.02, 0.021, 0.02, 0.0205])["period_doubled"]
+
+
+def test_compare_bed_command_writes_the_schema(tmp_path, capsys):
+    out = tmp_path / "bed.json"
+    assert main(["compare-bed", "--gammas", "3", "--no-extra", "--cells", "24", "--json", str(out)]) == 0
+    data = json.loads(out.read_text())
+    assert data["fitted_constants"] == {}
+    case = data["cases"][0]
+    for key in ("gamma", "mass_centre_rms_over_d", "flight_time_rel_diff"):
+        assert isinstance(case[key], float) and math.isfinite(case[key])
+    assert set(data["period_doubling_gamma"]) >= {"continuum", "dem"}
+    assert data["cost_s"]["continuum"] > 0 and data["cost_s"]["dem"] > 0
+    assert "| 3 |" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("argv, text", [(["--gammas", "3.3"], "--gammas 3.3"), (["--cells", "2"], "--cells 2"),
+                                        (["--reference", "/nonexistent"], "--reference")])
+def test_compare_bed_bad_input_exits_2(argv, text, capsys):
+    assert main(["compare-bed", "--no-extra"] + argv) == 2
+    err = capsys.readouterr().err
+    assert text in err and len(err.strip().splitlines()) == 1
