@@ -33,6 +33,9 @@ OUTPUTS = [
     (["compare", "--figures"], "--figures", "dir"),
     (["compare-dump", "{dump}", "--dt", "1e-5", "--json"], "--json", "file"),
     (["compare-dump", "{dump}", "--dt", "1e-5", "--figures"], "--figures", "dir"),
+    (["compare-bed", "--json"], "--json", "file"),
+    (["compare-bed", "--figures"], "--figures", "dir"),
+    (["run", "{layer}", "--out"], "--out", "file"),     # a 2-D / 3-D layer config
     (["sweep", "--param", "a_over_d=0.5,1", "--out"], "--out", "file"),
     (["sweep", "--param", "a_over_d=0.5,1", "--figure"], "--figure", "file"),
 ]
@@ -53,6 +56,8 @@ def _bad_path(kind, bad, tmp):
 def no_work(monkeypatch):
     """Replace everything that computes, reads inputs or starts a cluster by a test failure."""
     import bsrflow.analysis.compare as compare
+    import bsrflow.analysis.compare_bed as compare_bed
+    from bsrflow.numerics.solver_nd import SimulationND
     import bsrflow.analysis.energy as energy
     import bsrflow.analysis.stability as stability
     import bsrflow.analysis.verify as verify
@@ -71,7 +76,8 @@ def no_work(monkeypatch):
                       (compare, "compare"), (lammps, "read_dump"), (column, "run_bsr_column"),
                       (runner, "column_simulation"), (runner, "initial_density"), (plot_file, "plot_file"),
                       (plot_file, "load_output"), (sweep, "run_sweep"), (sweep, "parse_params"),
-                      (commands, "default_config_text"), (Simulation, "run"), (Simulation, "advance")]:
+                      (commands, "default_config_text"), (Simulation, "run"), (Simulation, "advance"),
+                      (compare_bed, "compare_bed"), (SimulationND, "run"), (SimulationND, "__init__")]:
         monkeypatch.setattr(mod, name, fail)
 
 
@@ -86,8 +92,10 @@ def test_bad_output_path_one_line_exit_2_before_any_work(tmp_path, capsys, no_wo
     nc.write_bytes(b"not read before the check")
     dump = tmp_path / "d.dump"
     dump.write_text("not read before the check")
+    layer = tmp_path / "layer.toml"
+    layer.write_text("[layer]\ndim = 2\n")
     path = _bad_path(kind, bad, tmp_path)
-    args = [a.format(cfg=cfg, nc=nc, dump=dump) for a in argv] + [path]
+    args = [a.format(cfg=cfg, nc=nc, dump=dump, layer=layer) for a in argv] + [path]
     t0 = time.perf_counter()
     code = main(args)
     wall = time.perf_counter() - t0
@@ -102,7 +110,7 @@ def test_bad_output_path_one_line_exit_2_before_any_work(tmp_path, capsys, no_wo
     assert problem in err[0], err[0]
     assert wall < 5.0                                    # a check, not a computation
     assert not (tmp_path / "no_such_folder").exists()   # missing folders are never created
-    assert sorted(os.listdir(tmp_path)) == ["a_dir", "a_file", "c.toml", "d.dump", "r.nc"]
+    assert sorted(os.listdir(tmp_path)) == ["a_dir", "a_file", "c.toml", "d.dump", "layer.toml", "r.nc"]
     assert os.listdir(tmp_path / "a_dir") == []
 
 

@@ -34,8 +34,10 @@ def add_parser(sub):
     p.set_defaults(func=_init)
 
     p = sub.add_parser("run", help="run a config (TOML) into a netCDF file, with checkpoints and --resume",
-                       description="Validate CONFIG, run the tapped column and write snapshots to a "
-                                   "netCDF4 file as the run goes.")
+                       description="Validate CONFIG, run the tapped column (or, for a config with a "
+                                   "[layer] table, a 2-D / 3-D layer, with optional VTK output; "
+                                   "bsrflow.io.layer_runner) and write snapshots to a netCDF4 file as "
+                                   "the run goes.")
     p.add_argument("config", metavar="CONFIG", help="TOML config (see `bsrflow init`)")
     p.add_argument("--out", metavar="FILE.nc", help="output file (default: CONFIG with the suffix .nc; "
                    "its folder must exist), replaced if it exists (unless --resume); checkpoints go to "
@@ -83,9 +85,57 @@ def _init(args) -> int:
     return 0
 
 
+def _progress_bar(total, show_bar):
+    """A tqdm bar of simulated time, started at its first call (after compiling)."""
+    bar = None
+
+    def progress(t):
+        nonlocal bar
+        if not show_bar:
+            return
+        if bar is None:
+            from tqdm import tqdm
+            bar = tqdm(total=float(total), initial=float(t), unit="sim-s", desc="bsrflow run",
+                       file=sys.stderr, leave=False, dynamic_ncols=True,
+                       bar_format="{desc}: {percentage:3.0f}%|{bar}| t = {n:.4g}/{total:.4g} s "
+                                  "[{elapsed}<{remaining}, {rate_noinv_fmt}]")
+        bar.update(max(0.0, t - bar.n))
+
+    def close():
+        if bar is not None:
+            bar.close()
+
+    return progress, close
+
+
+def _run_layer(args) -> int:
+    """`bsrflow run` of a 2-D / 3-D layer config (a [layer] table; :mod:`bsrflow.io.layer_runner`)."""
+    from .layer_runner import load_layer_config, run_layer_config
+
+    if args.set or args.scheme:
+        raise ConfigError("--set" if args.set else "--scheme", "is not supported for layer configs; "
+                          "edit the [layer] table instead")
+    cfg = load_layer_config(args.config)
+    out = args.out or os.path.splitext(args.config)[0] + ".nc"
+    if os.path.abspath(out) == os.path.abspath(args.config):
+        raise ConfigError("--out", f"{out} is the config file itself; give another file name (e.g. .nc)")
+    progress, close = _progress_bar(cfg.setup.t_end, not args.quiet and sys.stderr.isatty())
+    try:
+        with _sigterm_as_interrupt():
+            outcome = run_layer_config(cfg, out, resume=args.resume, progress=progress)
+    finally:
+        close()
+    if not args.quiet:
+        print(f"bsrflow run: {outcome.summary()}")
+    return 0
+
+
 def _run(args) -> int:
+    from .layer_runner import is_layer_config
     from .runner import run_config
 
+    if is_layer_config(args.config):
+        return _run_layer(args)
     config = load_config(args.config)
     overrides = dict(parse_override(s) for s in args.set)
     if args.scheme:

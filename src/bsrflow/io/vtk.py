@@ -120,6 +120,19 @@ class VTKWriter:
         self.times.append(t)
         self._write_pvd()
 
+    def keep_before(self, t_keep):
+        """Resume: take the collection written so far, keep its files with time < ``t_keep`` [s]
+        (later ones are overwritten as the run goes on) and rewrite the ``.pvd``."""
+        import re
+
+        self.files, self.times = [], []
+        if self.pvd.exists():
+            for t, name in re.findall(r'timestep="([^"]+)" part="0" file="([^"]+)"', self.pvd.read_text()):
+                if float(t) < t_keep:
+                    self.times.append(float(t))
+                    self.files.append(self.pvd.parent / name)
+        self._write_pvd()
+
     def _write_pvd(self):
         rows = "\n".join(f'    <DataSet timestep={quoteattr(repr(t))} part="0" file={quoteattr(f.name)}/>'
                          for t, f in zip(self.times, self.files))

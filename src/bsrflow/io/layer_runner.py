@@ -1,0 +1,201 @@
+"""``bsrflow run`` for 2-D / 3-D layers (issue #19): a TOML config with a ``[layer]`` table runs a
+scenario of :mod:`bsrflow.physics.scenarios_nd` through the shared controller into the n-D
+netCDF file (:class:`bsrflow.io.netcdf.NetCDFWriterND`), optionally VTK files for ParaView
+(:class:`bsrflow.io.vtk.VTKWriter`), with checkpoints and ``--resume`` as the 1-D runs::
+
+    [layer]
+    kind = "tapped_layer"        # or "vibrated_box"
+    dim = 3                      # and any field of TappedLayer / VibratedBox (SI units)
+    t_end = 0.2
+    [output]
+    vtk = true                   # <out stem>_vtk/layer_*.vtu and layer.pvd
+    checkpoint_every = 0.05      # [s], on snapshot times; 0: none; default about every 0.1 s
+
+Every key is checked before the run: an unknown table or key, or a value outside its range,
+is one line ``layer.<key>: <problem>`` (exit code 2).  A checkpoint ``<out>.ckpt`` holds the
+state before the jump and the save at its time (the 1-D format, :mod:`bsrflow.io.checkpoint`,
+with the n-D arrays), removed when the run finishes; ``--resume`` with the same config
+continues bit for bit.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import time
+import tomllib
+from dataclasses import dataclass
+
+import numpy as np
+
+from .checkpoint import Checkpoint, checkpoint_path, read_checkpoint, write_checkpoint
+from .config import ConfigError
+
+__all__ = ["is_layer_config", "load_layer_config", "run_layer_config", "LayerOutcome"]
+
+KINDS = ("tapped_layer", "vibrated_box")
+_OUTPUT_KEYS = {"vtk": bool, "checkpoint_every": float}
+
+
+def is_layer_config(path) -> bool:
+    """True when the TOML file at ``path`` has a ``[layer]`` table (a 2-D / 3-D run)."""
+    try:
+        with open(path, "rb") as fh:
+            return "layer" in tomllib.load(fh)
+    except (OSError, tomllib.TOMLDecodeError):
+        return False
+
+
+@dataclass
+class LayerConfig:
+    setup: object
+    vtk: bool
+    checkpoint_every: float | None
+    text: str
+
+
+def load_layer_config(path) -> LayerConfig:
+    """Read and check a layer config (module docstring); ConfigError on the first problem."""
+    from ..physics.scenarios_nd import TappedLayer, VibratedBox
+
+    with open(path, "rb") as fh:
+        raw = fh.read()
+    data = tomllib.loads(raw.decode("utf-8"))
+    for table in data:
+        if table not in ("layer", "output"):
+            raise ConfigError(str(table), "unknown table in a layer config; valid: [layer], [output]")
+    layer = dict(data["layer"])
+    kind = layer.pop("kind", "tapped_layer")
+    if kind not in KINDS:
+        raise ConfigError("layer.kind", f"{kind!r} is not one of {', '.join(KINDS)}")
+    cls = TappedLayer if kind == "tapped_layer" else VibratedBox
+    names = {f.name: f for f in dataclasses.fields(cls)}
+    kw = {}
+    for key, value in layer.items():
+        if key not in names:
+            raise ConfigError(f"layer.{key}", f"unknown key for kind = {kind!r}; valid: {', '.join(sorted(names))}")
+        kw[key] = value
+    try:
+        setup = cls(**kw)
+    except (ValueError, TypeError) as exc:
+        msg = str(exc).splitlines()[0]
+        field = next((k for k in kw if msg.startswith(k)), None)
+        raise ConfigError(f"layer.{field}" if field else "layer", msg) from None
+    out = dict(data.get("output", {}))
+    for key, value in out.items():
+        if key not in _OUTPUT_KEYS:
+            raise ConfigError(f"output.{key}", f"unknown key; valid: {', '.join(_OUTPUT_KEYS)}")
+    vtk = out.get("vtk", False)
+    if not isinstance(vtk, bool):
+        raise ConfigError("output.vtk", f"{vtk!r} must be true or false")
+    ck = out.get("checkpoint_every")
+    if ck is not None:
+        if isinstance(ck, bool) or not isinstance(ck, (int, float)) or not (math.isfinite(ck) and ck >= 0.0):
+            raise ConfigError("output.checkpoint_every", f"{ck!r} is outside the valid range [0, inf) s")
+    return LayerConfig(setup, vtk, None if ck is None else float(ck), raw.decode("utf-8"))
+
+
+@dataclass
+class LayerOutcome:
+    path: str
+    status: str
+    n_snapshots: int
+    t_end: float
+    steps: int
+    wall_time: float
+    resumed_from: float | None
+    vtk: str | None
+
+    def summary(self) -> str:
+        resumed = f" (resumed from t = {self.resumed_from:.6g} s)" if self.resumed_from is not None else ""
+        vtk = f"; VTK {self.vtk}" if self.vtk else ""
+        return (f"{self.status}: {self.n_snapshots} snapshots to t = {self.t_end:.6g} s, {self.steps} steps{resumed}; "
+                f"wall time {self.wall_time:.3g} s; wrote {self.path}{vtk}")
+
+
+def _checkpoint_times(save_times, interval):
+    """Checkpoints on snapshot times, about every ``interval`` s (None: 0.1 s; 0: none)."""
+    if interval == 0.0 or len(save_times) < 2:
+        return np.array([])
+    interval = 0.1 if interval is None else interval
+    step = max(1, int(round(interval / (save_times[1] - save_times[0]))))
+    return np.asarray(save_times[step::step], dtype=float)
+
+
+def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=None) -> LayerOutcome:
+    """Run a layer config into ``out`` (module docstring)."""
+    from ..numerics.solver import Scheme, SimulationError, save_schedule
+    from ..numerics.solver_nd import SimulationND
+    from .netcdf import NetCDFWriterND, read_snapshots
+    from .paths import check_output_file
+    from .vtk import VTKWriter
+
+    out = check_output_file(out, "--out")
+    setup = cfg.setup
+    grid = setup.grid()
+    scheme = Scheme.preset(setup.scheme, positivity=bool(setup.positivity))
+    sim = SimulationND(setup.model(), grid, scheme, average=setup.average,
+                       vacuum_density=1e-4 * setup.bottom_density, top_tolerance=1e-3 * setup.bottom_density)
+    motion = setup.model().motion
+    floor = lambda t: motion.state(t)[0]  # noqa: E731
+    save_times = save_schedule(0.0, setup.t_end, setup.save_every)
+    ck_times = _checkpoint_times(save_times, cfg.checkpoint_every)
+    ck_file = checkpoint_path(out)
+    vtk_stem = os.path.splitext(out)[0] + "_vtk" if cfg.vtk else None
+    t0, steps0, resumed = 0.0, 0, None
+    u0, rho0 = setup.initial_state(grid)
+    attrs = {"config": cfg.text, "scheme": scheme.name, "dimension": grid.dim}
+    if resume:
+        if not os.path.exists(ck_file):
+            raise ConfigError("--resume", f"no checkpoint {ck_file}; run without --resume")
+        ck = read_checkpoint(ck_file)
+        if ck.config != cfg.text:
+            raise ConfigError("--resume", f"{ck_file} was written by another config; run without --resume")
+        t0, steps0, resumed = float(ck.t), int(ck.steps), float(ck.t)
+        u0, rho0 = ck.u, ck.rho
+        writer = NetCDFWriterND.resume(out, t0, grid, floor, expected_snapshots=save_times.size)
+        save_times = save_times[save_times >= t0]
+    else:
+        if os.path.exists(ck_file):
+            os.remove(ck_file)                        # stale: belongs to an earlier run
+        writer = NetCDFWriterND(out, grid, floor, attrs, expected_snapshots=save_times.size)
+    observers = [writer]
+    vtk_writer = None
+    if vtk_stem:
+        os.makedirs(vtk_stem, exist_ok=True)
+        vtk_writer = VTKWriter(grid, os.path.join(vtk_stem, "layer"))
+        if resume:
+            vtk_writer.keep_before(t0)
+        observers.append(vtk_writer)
+    last = {"t": None}
+
+    def on_checkpoint(t, u, rho, steps):
+        write_checkpoint(ck_file, Checkpoint(t, u, rho, np.zeros(0), steps0 + steps, 0, 0.0, writer.n, cfg.text))
+        last["t"] = t
+
+    wall = time.perf_counter()
+    try:
+        res = sim.run(u0, rho0, setup.t_end, t_start=t0, save_times=save_times, observers=observers,
+                      progress=progress, extra_event_times=ck_times[ck_times > t0], on_event=on_checkpoint,
+                      restart=resume)
+    except SimulationError as exc:
+        writer.close(f"stopped: {exc}")
+        raise
+    except KeyboardInterrupt as exc:
+        how = "by SIGTERM" if getattr(exc, "signal_name", "") == "SIGTERM" else "by Ctrl-C (SIGINT)"
+        writer.close(f"interrupted {how} after {writer.n} snapshots")
+        cont = (f"checkpoint {ck_file} at t = {last['t']:.6g} s: `--resume` continues from there"
+                if last["t"] is not None else "no checkpoint written yet: run again to start over")
+        exc.args = (f"interrupted {how}: {out} keeps {writer.n} snapshot(s); {cont}",)
+        exc.exit_code = 128 + int(getattr(exc, "signal_number", 2))
+        raise
+    except BaseException:
+        writer.close("failed")
+        raise
+    writer.close("ok", steps=int(steps0 + res.steps))
+    if os.path.exists(ck_file):
+        os.remove(ck_file)                            # the run is complete
+    data, _ = read_snapshots(out)
+    return LayerOutcome(out, "ok", int(data["time"].size), float(setup.t_end), int(steps0 + res.steps),
+                        time.perf_counter() - wall, resumed, vtk_writer.pvd.as_posix() if vtk_writer else None)

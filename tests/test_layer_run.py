@@ -1,0 +1,84 @@
+"""Issue #19: `bsrflow run` of a 2-D / 3-D layer config: the n-D netCDF file and VTK files,
+one-line refusals, and an interrupted run resumed from its checkpoint bit for bit."""
+import numba
+import numpy as np
+import pytest
+import xarray as xr
+
+from bsrflow.cli import main
+from bsrflow.io.layer_runner import load_layer_config, run_layer_config
+from bsrflow.io.netcdf import read_snapshots
+
+CONFIG = """[layer]
+kind = "tapped_layer"
+dim = 2
+t_end = 0.12
+save_every = 0.01
+[output]
+vtk = true
+checkpoint_every = 0.05
+"""
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _one_thread():
+    n0 = numba.get_num_threads()
+    numba.set_num_threads(1)
+    yield
+    numba.set_num_threads(n0)
+
+
+def test_layer_config_runs_into_netcdf_and_vtk(tmp_path):
+    import meshio
+
+    cfg = tmp_path / "layer.toml"
+    cfg.write_text(CONFIG)
+    out = tmp_path / "layer.nc"
+    assert main(["run", str(cfg), "--out", str(out), "--quiet"]) == 0
+    ds = xr.open_dataset(out)
+    assert ds.attrs["status"] == "ok" and ds.attrs["scenario"] == "layer_2d"
+    assert ds["rho"].dims == ("time", "x", "z") and ds["rho"].attrs["units"] == "kg m-2"
+    assert ds.sizes["time"] == 13 and float(ds["rho"].min()) >= 0.0
+    np.testing.assert_allclose(ds["mass"].values, ds["mass"].values[0], rtol=1e-12)
+    last = meshio.read(tmp_path / "layer_vtk" / "layer_000012.vtu")
+    np.testing.assert_array_equal(last.cell_data["density [kg/m^2]"][0], ds["rho"].values[-1].ravel())
+    ds.close()
+    assert not (tmp_path / "layer.nc.ckpt").exists()
+
+
+@pytest.mark.parametrize("text, field", [
+    ("[layer]\nkind = 'box'\n", "layer.kind"),
+    ("[layer]\nnosuch = 1\n", "layer.nosuch"),
+    ("[layer]\ndim = 4\n", "layer.dim"),
+    ("[layer]\n[output]\nvtk = 1\n", "output.vtk"),
+    ("[layer]\n[extra]\n", "extra"),
+])
+def test_bad_layer_configs_exit_2_with_one_line(text, field, tmp_path, capsys):
+    cfg = tmp_path / "bad.toml"
+    cfg.write_text(text)
+    assert main(["run", str(cfg), "--out", str(tmp_path / "bad.nc")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert f"error: {field}" in err and len(err.splitlines()) == 1
+
+
+def test_interrupted_layer_run_resumes_bit_for_bit(tmp_path):
+    cfgfile = tmp_path / "layer.toml"
+    cfgfile.write_text(CONFIG.replace("vtk = true", "vtk = false"))
+    cfg = load_layer_config(cfgfile)
+    full = tmp_path / "full.nc"
+    run_layer_config(cfg, full)
+    part = tmp_path / "part.nc"
+
+    def stop(t):
+        if t > 0.075:
+            raise KeyboardInterrupt()
+
+    with pytest.raises(KeyboardInterrupt, match="--resume"):
+        run_layer_config(cfg, part, progress=stop)
+    assert (tmp_path / "part.nc.ckpt").exists()
+    outcome = run_layer_config(cfg, part, resume=True)
+    assert outcome.resumed_from == pytest.approx(0.05)
+    a, _ = read_snapshots(full)
+    b, _ = read_snapshots(part)
+    for k in ("time", "rho", "u_x", "u_z", "mass_centre"):
+        np.testing.assert_array_equal(a[k], b[k])
