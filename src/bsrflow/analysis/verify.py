@@ -258,7 +258,8 @@ def run_cases(which=None, log=print):
 
 
 def _extra_jobs():
-    """Cases contributed by other modules (n-D embedding, accurate scheme) when present."""
+    """Cases contributed by other modules (n-D embedding of the seed kernel and of the packing
+    continuum: embedding_packing_2d / _3d)."""
     jobs = []
     try:
         from ..numerics import solver_nd  # noqa: F401
@@ -266,6 +267,8 @@ def _extra_jobs():
         jobs.append(("embedding", nd_cases))
     except ImportError:
         pass
+    from ..numerics.packing_nd import verify_cases as packing_nd_cases
+    jobs.append(("embedding_packing", packing_nd_cases))
     return jobs
 
 

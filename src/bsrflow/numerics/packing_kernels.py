@@ -60,8 +60,10 @@ def active_top(q, start):
 
 
 @numba.njit(cache=True, inline="always")
-def _hlle(rL, uL, hL, rR, uR, hR, d, m, k1, k2, c_cap, rho_tiny):
-    """HLLE flux of (ρu, ρu² + P, ρuδ_max) between the face states L and R (see fv_rhs)."""
+def hlle_waves(rL, uL, hL, rR, uR, hR, d, m, k1, k2, c_cap, rho_tiny):
+    """The HLLE wave bounds between the face states L and R (see fv_rhs): returns
+    (S_L, S_R, u_L, u_R, P_L, P_R), the velocities set to 0 in vacuum.  Shared by the 1-D flux
+    and the n-D flux (:mod:`bsrflow.numerics.packing_nd`)."""
     if rL <= rho_tiny:
         uL = 0.0
     if rR <= rho_tiny:
@@ -79,20 +81,28 @@ def _hlle(rL, uL, hL, rR, uR, hR, d, m, k1, k2, c_cap, rho_tiny):
     else:
         ch = max(cL, cR)
     ch = min(ch, c_cap)
-    SL = min(uL - cL, uh - ch)
-    SR = max(uR + cR, uh + ch)
-    fL0, fL1, fL2 = rL * uL, rL * uL * uL + pL, rL * uL * hL
-    fR0, fR1, fR2 = rR * uR, rR * uR * uR + pR, rR * uR * hR
+    return min(uL - cL, uh - ch), max(uR + cR, uh + ch), uL, uR, pL, pR
+
+
+@numba.njit(cache=True, inline="always")
+def hlle_combine(SL, SR, fL, fR, qL, qR):
+    """HLLE flux of one conserved component from its left/right fluxes and states."""
     if SL > 0.0:
-        return fL0, fL1, fL2
+        return fL
     if SR < 0.0:
-        return fR0, fR1, fR2
+        return fR
     if SR == SL:                                  # SL = SR = 0: no wave leaves the face
-        return 0.5 * (fL0 + fR0), 0.5 * (fL1 + fR1), 0.5 * (fL2 + fR2)
-    inv = 1.0 / (SR - SL)
-    return ((SR * fL0 - SL * fR0 + SL * SR * (rR - rL)) * inv,
-            (SR * fL1 - SL * fR1 + SL * SR * (rR * uR - rL * uL)) * inv,
-            (SR * fL2 - SL * fR2 + SL * SR * (rR * hR - rL * hL)) * inv)
+        return 0.5 * (fL + fR)
+    return (SR * fL - SL * fR + SL * SR * (qR - qL)) * (1.0 / (SR - SL))
+
+
+@numba.njit(cache=True, inline="always")
+def _hlle(rL, uL, hL, rR, uR, hR, d, m, k1, k2, c_cap, rho_tiny):
+    """HLLE flux of (ρu, ρu² + P, ρuδ_max) between the face states L and R (see fv_rhs)."""
+    SL, SR, uL, uR, pL, pR = hlle_waves(rL, uL, hL, rR, uR, hR, d, m, k1, k2, c_cap, rho_tiny)
+    return (hlle_combine(SL, SR, rL * uL, rR * uR, rL, rR),
+            hlle_combine(SL, SR, rL * uL * uL + pL, rR * uR * uR + pR, rL * uL, rR * uR),
+            hlle_combine(SL, SR, rL * uL * hL, rR * uR * hR, rL * hL, rR * hR))
 
 
 @numba.njit(cache=True)

@@ -24,7 +24,7 @@ import numpy as np
 __all__ = ["RHO", "MOM", "HIST", "NG", "contact_force", "history_update", "wave_speed", "minmod",
            "hlle_flux", "fill_ghosts", "fv_rhs", "fv_post_step", "fv_time_step", "active_top",
            "ssp_rk3_step", "bond_lengths", "lagrangian_forces", "lagrangian_accelerations",
-           "lagrangian_history", "verlet_step"]
+           "lagrangian_history", "verlet_step", "hlle_waves", "hlle_combine", "fv_rhs_nd"]
 
 RHO, MOM, HIST = 0, 1, 2
 NG = 2
@@ -74,6 +74,25 @@ def hlle_flux(rL, uL, hL, rR, uR, hR, d, m, k1, k2, c_cap, rho_tiny):
     unless |ρ_R − ρ_L| ≤ 1e-12 (ρ_L + ρ_R), then ĉ = max(c_L, c_R); ĉ ≤ c_cap.
     F = F_L if S_L > 0, F_R if S_R < 0, (F_L + F_R)/2 if S_L = S_R, else
     (S_R F_L − S_L F_R + S_L S_R (U_R − U_L)) / (S_R − S_L)."""
+    SL, SR, uL, uR, pL, pR = hlle_waves(rL, uL, hL, rR, uR, hR, d, m, k1, k2, c_cap, rho_tiny)
+    UL = np.array([rL, rL * uL, rL * hL])
+    UR = np.array([rR, rR * uR, rR * hR])
+    FL = np.array([rL * uL, rL * uL ** 2 + pL, rL * uL * hL])
+    FR = np.array([rR * uR, rR * uR ** 2 + pR, rR * uR * hR])
+    return hlle_combine(SL, SR, FL, FR, UL, UR)
+
+
+def hlle_combine(SL, SR, FL, FR, UL, UR):
+    """The HLLE formula of hlle_flux for any components (arrays broadcast over faces)."""
+    width = SR - SL
+    F = (SR * FL - SL * FR + SL * SR * (UR - UL)) / np.where(width != 0.0, width, 1.0)
+    F = np.where(SL == SR, 0.5 * (FL + FR), F)
+    F = np.where(SR < 0.0, FR, F)
+    return np.where(SL > 0.0, FL, F)
+
+
+def hlle_waves(rL, uL, hL, rR, uR, hR, d, m, k1, k2, c_cap, rho_tiny):
+    """(S_L, S_R, u_L, u_R, P_L, P_R) of hlle_flux (velocities 0 in vacuum)."""
     fullL, fullR = rL > rho_tiny, rR > rho_tiny
     uL = np.where(fullL, uL, 0.0)
     uR = np.where(fullR, uR, 0.0)
@@ -92,17 +111,60 @@ def hlle_flux(rL, uL, hL, rR, uR, hR, d, m, k1, k2, c_cap, rho_tiny):
     c_hat = np.minimum(c_hat, c_cap)
     SL = np.minimum(uL - cL, u_hat - c_hat)
     SR = np.maximum(uR + cR, u_hat + c_hat)
+    return SL, SR, uL, uR, pL, pR
 
-    UL = np.array([rL, rL * uL, rL * hL])
-    UR = np.array([rR, rR * uR, rR * hR])
-    FL = np.array([rL * uL, rL * uL ** 2 + pL, rL * uL * hL])
-    FR = np.array([rR * uR, rR * uR ** 2 + pR, rR * uR * hR])
-    width = SR - SL
-    F = (SR * FL - SL * FR + SL * SR * (UR - UL)) / np.where(width != 0.0, width, 1.0)
-    F = np.where(SL == SR, 0.5 * (FL + FR), F)
-    F = np.where(SR < 0.0, FR, F)
-    F = np.where(SL > 0.0, FL, F)
-    return F
+
+def fv_rhs_nd(q, dim, dx, accel, d, m, k1, k2, c_cap, rho_tiny):
+    """NumPy twin of :func:`bsrflow.numerics.packing_nd.fv_rhs_nd`: q of shape (5, NX, NY, NZ)
+    (ρ, ρu_x, ρu_y, ρu_z, ρδ_max); returns dq.  Along every axis: primitives, ghosts (floor
+    mirror with u_z odd and an empty top along z; periodic along x, y), minmod reconstruction,
+    the HLLE flux of (ρ, ρu_n, ρδ_max) and of the transverse momenta with the same wave bounds."""
+    q = np.asarray(q, float)
+    r = q[0]
+    full = r > rho_tiny
+    safe = np.where(full, r, 1.0)
+    prim = [np.where(full, r, 0.0)] + [np.where(full, q[c] / safe, 0.0) for c in (1, 2, 3, 4)]
+    dq = np.zeros_like(q)
+    axes = [3] + ([1] if dim == 2 else [1, 2])          # z first, then x (and y)
+    for ax in axes:
+        normal = {1: 1, 2: 2, 3: 3}[ax]
+        others = [c for c in (1, 2, 3) if c != normal]
+        w = [np.moveaxis(p_, ax - 1, -1) for p_ in prim]    # the axis last
+        if ax == 3:
+            lo = [x[..., 1::-1] for x in w]
+            lo[normal] = -lo[normal]
+            z = [np.zeros(x.shape[:-1] + (3,)) for x in w]
+            w = [np.concatenate([a, x, b], axis=-1) for a, x, b in zip(lo, w, z)]
+        else:
+            w = [np.concatenate([x[..., -2:], x, x[..., :3]], axis=-1) for x in w]
+        n = w[0].shape[-1] - 5
+
+        def faces(x):
+            c = x[..., 1:n + 2]
+            left = x[..., 0:n + 1]
+            right = x[..., 2:n + 3]
+            rr = x[..., 3:n + 4]
+            xl = c + 0.5 * minmod(c - left, right - c)
+            xr = right - 0.5 * minmod(right - c, rr - right)
+            return xl, xr
+
+        (rL, rR), (uL, uR), (hL, hR) = faces(w[0]), faces(w[normal]), faces(w[4])
+        tL, tR = zip(*[faces(w[c]) for c in others])
+        SL, SR, uL0, uR0, pL, pR = hlle_waves(rL, uL, hL, rR, uR, hR, d, m, k1, k2, c_cap, rho_tiny)
+        F = {0: hlle_combine(SL, SR, rL * uL0, rR * uR0, rL, rR),
+             normal: hlle_combine(SL, SR, rL * uL0 ** 2 + pL, rR * uR0 ** 2 + pR, rL * uL0, rR * uR0),
+             4: hlle_combine(SL, SR, rL * uL0 * hL, rR * uR0 * hR, rL * hL, rR * hR)}
+        for c, a_, b_ in zip(others, tL, tR):
+            a_ = np.where(rL > rho_tiny, a_, 0.0)
+            b_ = np.where(rR > rho_tiny, b_, 0.0)
+            F[c] = hlle_combine(SL, SR, rL * uL0 * a_, rR * uR0 * b_, rL * a_, rR * b_)
+        for c in range(5):
+            dq[c] += np.moveaxis(-(F[c][..., 1:] - F[c][..., :-1]) / dx, -1, ax - 1)
+        if ax == 3:
+            dq[3] += r * accel
+    if dim == 2:
+        dq[2] = 0.0
+    return dq
 
 
 def fill_ghosts(q, hi):
