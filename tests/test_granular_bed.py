@@ -120,3 +120,20 @@ def test_compare_bed_bad_input_exits_2(argv, text, capsys):
     assert main(["compare-bed", "--no-extra"] + argv) == 2
     err = capsys.readouterr().err
     assert text in err and len(err.strip().splitlines()) == 1
+
+
+def test_flight_definition_is_the_reference_scripts():
+    """compare-bed's flights equal those of reference/liggghts_bed/run_liggghts.py on one series."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "reference" / "liggghts_bed" / "run_liggghts.py"
+    spec = importlib.util.spec_from_file_location("run_liggghts", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    rng = np.random.default_rng(2)
+    t = np.arange(0, 0.3, 1e-4)
+    force = np.clip(np.sin(2 * np.pi * 20 * t) + 0.3 * rng.normal(size=t.size), 0.0, None)
+    a = flights_from_force(t, force, 1.0)
+    b = mod.flights_from_force(t, force, 1.0)
+    assert len(a) > 3 and np.allclose(np.array(a, dtype=float), np.array(b, dtype=float), equal_nan=True)

@@ -1,6 +1,5 @@
 """Issue #19: `bsrflow run` of a 2-D / 3-D layer config: the n-D netCDF file and VTK files,
 one-line refusals, and an interrupted run resumed from its checkpoint bit for bit."""
-import numba
 import numpy as np
 import pytest
 import xarray as xr
@@ -20,12 +19,7 @@ checkpoint_every = 0.05
 """
 
 
-@pytest.fixture(autouse=True, scope="module")
-def _one_thread():
-    n0 = numba.get_num_threads()
-    numba.set_num_threads(1)
-    yield
-    numba.set_num_threads(n0)
+pytestmark = pytest.mark.usefixtures("one_numba_thread")
 
 
 def test_layer_config_runs_into_netcdf_and_vtk(tmp_path):

@@ -1,7 +1,6 @@
 """Issue #19: the n-D run's outputs: the netCDF file (NetCDFWriterND, the 1-D writer's crash-safe
 machinery with the n-D variables and their units), VTK files read back with meshio, and
 checkpoint/restart through the shared controller, bit for bit."""
-import numba
 import numpy as np
 import pytest
 import xarray as xr
@@ -13,12 +12,7 @@ from bsrflow.numerics.solver_nd import SimulationND
 from bsrflow.physics.scenarios_nd import TappedLayer
 
 
-@pytest.fixture(autouse=True, scope="module")
-def _one_thread():
-    n0 = numba.get_num_threads()
-    numba.set_num_threads(1)
-    yield
-    numba.set_num_threads(n0)
+pytestmark = pytest.mark.usefixtures("one_numba_thread")
 
 
 def _layer(dim, **kw):

@@ -2,7 +2,6 @@
 formulation (the verify cases embedding_packing_2d / _3d, to 1e-10), the compiled right-hand
 side agrees with its NumPy twin to 1e-12 on a non-uniform state, mass is conserved and ρ >= 0
 in a genuinely 2-D run, and bad input is refused in one line."""
-import numba
 import numpy as np
 import pytest
 
@@ -15,12 +14,7 @@ from bsrflow.physics.motion import HalfSineTaps
 LAW = PackingLawND.for_spheres(5e4, 0.9, 0.005, 1200.0, 0.636, 5.39)
 
 
-@pytest.fixture(autouse=True, scope="module")
-def _one_thread():
-    n0 = numba.get_num_threads()
-    numba.set_num_threads(1)
-    yield
-    numba.set_num_threads(n0)
+pytestmark = pytest.mark.usefixtures("one_numba_thread")
 
 
 @pytest.mark.parametrize("dim, t_end", [(2, 0.04), (3, 0.02)])

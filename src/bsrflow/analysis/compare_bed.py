@@ -46,7 +46,9 @@ STARTUP_CYCLES = 3
 
 def flights_from_force(t, force, weight):
     """Flights: maximal intervals with the 1-ms moving average of the floor force below 10 % of
-    the bed weight, longer than 1 ms (the reference's definition).  [(t_off, t_on)], t_on NaN
+    the bed weight, longer than 1 ms (the reference's definition, written again here because
+    reference/liggghts_bed/run_liggghts.py runs without bsrflow; tests/test_granular_bed.py
+    checks both on the same series).  [(t_off, t_on)], t_on NaN
     for a flight still going at the end."""
     t = np.asarray(t, float)
     dtp = t[1] - t[0]

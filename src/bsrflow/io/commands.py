@@ -86,7 +86,8 @@ def _init(args) -> int:
 
 
 def _progress_bar(total, show_bar):
-    """A tqdm bar of simulated time, started at its first call (after compiling)."""
+    """A tqdm bar of simulated time [s] and its rate [simulated s per wall s], started at its
+    first call (after the solver is compiled); returns (progress(t), close())."""
     bar = None
 
     def progress(t):
@@ -146,22 +147,7 @@ def _run(args) -> int:
     if os.path.abspath(out) == os.path.abspath(args.config):
         raise ConfigError("--out", f"{out} is the config file itself; give another file name (e.g. .nc)")
     quiet = bool(args.quiet)
-    show_bar = not quiet and sys.stderr.isatty()
-    bar = None
-
-    def progress(t):
-        # the bar starts at the first call, after the solver is compiled: simulated time [s] and
-        # its rate [simulated s per wall s]
-        nonlocal bar
-        if not show_bar:
-            return
-        if bar is None:
-            from tqdm import tqdm
-            bar = tqdm(total=float(config.run.t_end), initial=float(t), unit="sim-s", desc="bsrflow run",
-                       file=sys.stderr, leave=False, dynamic_ncols=True,
-                       bar_format="{desc}: {percentage:3.0f}%|{bar}| t = {n:.4g}/{total:.4g} s "
-                                  "[{elapsed}<{remaining}, {rate_noinv_fmt}]")
-        bar.update(max(0.0, t - bar.n))
+    progress, close_bar = _progress_bar(config.run.t_end, not quiet and sys.stderr.isatty())
 
     def log(msg):
         if not quiet:
@@ -171,8 +157,7 @@ def _run(args) -> int:
         with _sigterm_as_interrupt():
             outcome = run_config(config, out, resume=args.resume, progress=progress, log=log)
     finally:
-        if bar is not None:
-            bar.close()
+        close_bar()
     if not quiet:
         print(f"bsrflow run: {outcome.summary()}")
     return 0
