@@ -49,6 +49,7 @@ bench: $(STAMP)
 	$(BIN)/python bench/bench_step.py --json bench/results.json
 	$(BIN)/python bench/bench_packing.py --json bench/results.json
 	$(BIN)/python bench/bench_bed.py --json bench/results.json
+	$(BIN)/python bench/bench_packing_nd.py --json bench/results.json
 	$(BIN)/python bench/bench_schemes.py --json bench/results_schemes.json
 
 clean:

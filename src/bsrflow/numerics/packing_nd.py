@@ -161,44 +161,47 @@ def fv_rhs_nd(q, dq, dim, dx, accel, d, m, k1, k2, c_cap, rho_tiny):
                 dq[HIST, i, j, k] = -(fl[4, k + 1] - fl[4, k]) * inv_dx
     # horizontal axes (periodic): x, and y in 3-D; their flux differences are added after the
     # vertical part, so that an exact 0 leaves the vertical update unchanged
+    # (the lines are shared out by p = jb·NZ + kk, so that each thread gets whole columns of
+    # lines: dense and empty heights alike; by height alone one thread got the dense half)
     for axis in range(dim - 1):
         nA = NX if axis == 0 else NY
         nB = NY if axis == 0 else NX
-        for kk in prange(NZ):
+        cn = MX if axis == 0 else MY
+        ct = MY if axis == 0 else MX
+        for p in prange(nB * NZ):
+            jb = p // NZ
+            kk = p - jb * NZ
             wr = np.zeros(nA + 5)
             wu = np.zeros(nA + 5)
             wa = np.zeros(nA + 5)
             wb = np.zeros(nA + 5)
             wh = np.zeros(nA + 5)
             fl = np.zeros((5, nA + 1))
-            cn = MX if axis == 0 else MY
-            ct = MY if axis == 0 else MX
-            for jb in range(nB):
-                for ia in range(nA):
-                    i, j = (ia, jb) if axis == 0 else (jb, ia)
-                    r, u = _primitive(q, cn, i, j, kk, rho_tiny)
-                    wr[ia + 2], wu[ia + 2] = r, u
-                    wa[ia + 2] = q[MZ, i, j, kk] / r if r > 0.0 else 0.0
-                    wb[ia + 2] = q[ct, i, j, kk] / r if r > 0.0 else 0.0
-                    wh[ia + 2] = q[HIST, i, j, kk] / r if r > 0.0 else 0.0
-                for g in range(2):                     # periodic ghosts
-                    src_lo, src_hi = nA - 1 - g, g
-                    wr[1 - g], wu[1 - g], wa[1 - g], wb[1 - g], wh[1 - g] = (
-                        wr[src_lo + 2], wu[src_lo + 2], wa[src_lo + 2], wb[src_lo + 2], wh[src_lo + 2])
-                    wr[nA + 2 + g], wu[nA + 2 + g], wa[nA + 2 + g], wb[nA + 2 + g], wh[nA + 2 + g] = (
-                        wr[src_hi + 2], wu[src_hi + 2], wa[src_hi + 2], wb[src_hi + 2], wh[src_hi + 2])
-                wr[nA + 4], wu[nA + 4], wa[nA + 4], wb[nA + 4], wh[nA + 4] = wr[4], wu[4], wa[4], wb[4], wh[4]
-                for f in range(nA + 1):
-                    F = _axis_face(wr, wu, wa, wb, wh, f + 1, f + 2, d, m, k1, k2, c_cap, rho_tiny)
-                    for c in range(5):
-                        fl[c, f] = F[c]
-                for ia in range(nA):
-                    i, j = (ia, jb) if axis == 0 else (jb, ia)
-                    dq[RHO, i, j, kk] += -(fl[0, ia + 1] - fl[0, ia]) * inv_dx
-                    dq[cn, i, j, kk] += -(fl[1, ia + 1] - fl[1, ia]) * inv_dx
-                    dq[MZ, i, j, kk] += -(fl[2, ia + 1] - fl[2, ia]) * inv_dx
-                    dq[ct, i, j, kk] += -(fl[3, ia + 1] - fl[3, ia]) * inv_dx
-                    dq[HIST, i, j, kk] += -(fl[4, ia + 1] - fl[4, ia]) * inv_dx
+            for ia in range(nA):
+                i, j = (ia, jb) if axis == 0 else (jb, ia)
+                r, u = _primitive(q, cn, i, j, kk, rho_tiny)
+                wr[ia + 2], wu[ia + 2] = r, u
+                wa[ia + 2] = q[MZ, i, j, kk] / r if r > 0.0 else 0.0
+                wb[ia + 2] = q[ct, i, j, kk] / r if r > 0.0 else 0.0
+                wh[ia + 2] = q[HIST, i, j, kk] / r if r > 0.0 else 0.0
+            for g in range(2):                     # periodic ghosts
+                src_lo, src_hi = nA - 1 - g, g
+                wr[1 - g], wu[1 - g], wa[1 - g], wb[1 - g], wh[1 - g] = (
+                    wr[src_lo + 2], wu[src_lo + 2], wa[src_lo + 2], wb[src_lo + 2], wh[src_lo + 2])
+                wr[nA + 2 + g], wu[nA + 2 + g], wa[nA + 2 + g], wb[nA + 2 + g], wh[nA + 2 + g] = (
+                    wr[src_hi + 2], wu[src_hi + 2], wa[src_hi + 2], wb[src_hi + 2], wh[src_hi + 2])
+            wr[nA + 4], wu[nA + 4], wa[nA + 4], wb[nA + 4], wh[nA + 4] = wr[4], wu[4], wa[4], wb[4], wh[4]
+            for f in range(nA + 1):
+                F = _axis_face(wr, wu, wa, wb, wh, f + 1, f + 2, d, m, k1, k2, c_cap, rho_tiny)
+                for c in range(5):
+                    fl[c, f] = F[c]
+            for ia in range(nA):
+                i, j = (ia, jb) if axis == 0 else (jb, ia)
+                dq[RHO, i, j, kk] += -(fl[0, ia + 1] - fl[0, ia]) * inv_dx
+                dq[cn, i, j, kk] += -(fl[1, ia + 1] - fl[1, ia]) * inv_dx
+                dq[MZ, i, j, kk] += -(fl[2, ia + 1] - fl[2, ia]) * inv_dx
+                dq[ct, i, j, kk] += -(fl[3, ia + 1] - fl[3, ia]) * inv_dx
+                dq[HIST, i, j, kk] += -(fl[4, ia + 1] - fl[4, ia]) * inv_dx
     if dim == 2:
         for i in range(NX):
             for k in range(NZ):
@@ -245,6 +248,29 @@ def _speed_and_top(q, rho_tiny):
     return umax, top, 0, -1
 
 
+@numba.njit(cache=True, parallel=True)
+def _stage1(qf, q1f, i1f, dqf, dt):
+    """k1 = Δt L(q), q1 = q + k1 (flat arrays)."""
+    for idx in prange(qf.size):
+        i1f[idx] = dt * dqf[idx]
+        q1f[idx] = qf[idx] + i1f[idx]
+
+
+@numba.njit(cache=True, parallel=True)
+def _stage2(qf, q2f, i1f, i2f, dqf, dt):
+    """k2 = Δt L(q1), q2 = q + (k1 + k2)/4."""
+    for idx in prange(qf.size):
+        i2f[idx] = dt * dqf[idx]
+        q2f[idx] = qf[idx] + 0.25 * (i1f[idx] + i2f[idx])
+
+
+@numba.njit(cache=True, parallel=True)
+def _stage3(qf, i1f, i2f, dqf, dt):
+    """q += (k1 + k2)/6 + 2 k3/3 with k3 = Δt L(q2) (the 1-D fv_advance's increment form)."""
+    for idx in prange(qf.size):
+        qf[idx] += (i1f[idx] + i2f[idx]) / 6.0 + (2.0 / 3.0) * (dt * dqf[idx])
+
+
 @numba.njit(cache=True)
 def fv_advance_nd(q, t, t_stop, dim, dx, cfl, c_bound, d, m, k1, k2, rho_tiny, rho_floor, fn, params, gravity,
                   counters):
@@ -273,16 +299,11 @@ def fv_advance_nd(q, t, t_stop, dim, dx, cfl, c_bound, d, m, k1, k2, rho_tiny, r
             dt = t_stop - t
             last = True
         fv_rhs_nd(q, dq, dim, dx, -gravity - fn(t, params)[2], d, m, k1, k2, c_bound, rho_tiny)
-        for idx in range(qf.size):
-            i1f[idx] = dt * dqf[idx]
-            q1f[idx] = qf[idx] + i1f[idx]
+        _stage1(qf, q1f, i1f, dqf, dt)
         fv_rhs_nd(q1, dq, dim, dx, -gravity - fn(t + dt, params)[2], d, m, k1, k2, c_bound, rho_tiny)
-        for idx in range(qf.size):
-            i2f[idx] = dt * dqf[idx]
-            q2f[idx] = qf[idx] + 0.25 * (i1f[idx] + i2f[idx])
+        _stage2(qf, q2f, i1f, i2f, dqf, dt)
         fv_rhs_nd(q2, dq, dim, dx, -gravity - fn(t + 0.5 * dt, params)[2], d, m, k1, k2, c_bound, rho_tiny)
-        for idx in range(qf.size):
-            qf[idx] += (i1f[idx] + i2f[idx]) / 6.0 + (2.0 / 3.0) * (dt * dqf[idx])
+        _stage3(qf, i1f, i2f, dqf, dt)
         fv_post_step_nd(q, d, m, rho_floor)
         t = t_stop if last else t + dt
         counters[0] += 1
