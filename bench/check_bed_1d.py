@@ -9,7 +9,7 @@ Mapping of the 3-D bed (N spheres of d, ρ_s in a periodic box of side L, area A
 solid fraction φ_c is ρ_c = φ_c ρ_s A, one "layer" of it (mass m_eff = ρ_c d) plays the sphere;
 for an isotropic packing with Z contacts per sphere compressed uniaxially (affine, δ = d ε n_z²),
 σ_zz = (3 Z φ_c K / (5 π d)) ε, i.e. a layer stiffness K_eff = 3 Z φ_c K A / (5 π d²); the
-unloading K_eff/e².  φ_c = 0.636 and Z = 5.39 are the settled LIGGGHTS bed's (README there).
+unloading K_eff/e².  φ_c = 0.636 and Z = 5.31 (sphere–sphere) are the settled LIGGGHTS bed's (README there).
 The floor: z = A_f sin ωt from t = 0 (moving up at A_f ω at the start, as the deck's), after
 0.5 s of settling on the resting floor.  Flight time per cycle: the floor force (1-ms moving
 average) below 0.1 Mg, the LIGGGHTS post-processing's definition.
@@ -42,7 +42,7 @@ def _sine_floor(t, p):
 
 
 def run_bed(gamma, restitution, ppd, cycles=11, n=2000, side=13.0, d=0.005, rho_s=1200.0, stiffness=5e4,
-            phi=0.636, z=5.39, f=20.0, g=9.81, cfl=0.5):
+            phi=0.636, z=5.31, f=20.0, g=9.81, cfl=0.5):
     w = 2.0 * math.pi * f
     amp = gamma * g / w ** 2
     area = (side * d) ** 2

@@ -71,12 +71,14 @@ def flights_from_force(t, force, weight):
 
 
 def flight_per_cycle(flights, period, cycles):
-    """Flight time [s] of each cycle: the flight taking off in it (0 if none; NaN if unfinished)."""
+    """Flight time [s] of each cycle: the longest flight taking off in it, as the reference's
+    post-processing (0 if none; NaN if the cycle's flight is unfinished)."""
     out = np.zeros(cycles)
     for t_off, t_on in flights:
         c = int(t_off // period)
         if 0 <= c < cycles:
-            out[c] = t_on - t_off
+            dur = t_on - t_off
+            out[c] = dur if math.isnan(dur) else (out[c] if math.isnan(out[c]) else max(out[c], dur))
     return out
 
 
@@ -181,7 +183,8 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                  "(1-D limit of the 3-D bed)",
         "fitted_constants": {},
         "inputs": {"phi_c": base.phi_c, "coordination": base.coordination,
-                   "note": "phi_c and Z of the settled LIGGGHTS bed (reference README), measured, not fitted"},
+                   "note": "phi_c and the sphere-sphere Z of the settled LIGGGHTS bed (reference README), measured, "
+                           "not fitted"},
         "n_cells": n_cells,
         "cases": cases,
         "extra_cases": extra,

@@ -143,7 +143,7 @@ def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=
     ck_times = _checkpoint_times(save_times, cfg.checkpoint_every)
     ck_file = checkpoint_path(out)
     vtk_stem = os.path.splitext(out)[0] + "_vtk" if cfg.vtk else None
-    t0, steps0, resumed = 0.0, 0, None
+    t0, steps0, resumed, wall0 = 0.0, 0, None, 0.0
     u0, rho0 = setup.initial_state(grid)
     attrs = {"config": cfg.text, "scheme": scheme.name, "dimension": grid.dim}
     if resume:
@@ -152,7 +152,7 @@ def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=
         ck = read_checkpoint(ck_file)
         if ck.config != cfg.text:
             raise ConfigError("--resume", f"{ck_file} was written by another config; run without --resume")
-        t0, steps0, resumed = float(ck.t), int(ck.steps), float(ck.t)
+        t0, steps0, resumed, wall0 = float(ck.t), int(ck.steps), float(ck.t), float(ck.wall_time)
         u0, rho0 = ck.u, ck.rho
         writer = NetCDFWriterND.resume(out, t0, grid, floor, expected_snapshots=save_times.size)
         save_times = save_times[save_times >= t0]
@@ -171,7 +171,8 @@ def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=
     last = {"t": None}
 
     def on_checkpoint(t, u, rho, steps):
-        write_checkpoint(ck_file, Checkpoint(t, u, rho, np.zeros(0), steps0 + steps, 0, 0.0, writer.n, cfg.text))
+        write_checkpoint(ck_file, Checkpoint(t, u, rho, np.zeros(0), steps0 + steps, 0, wall0 + time.perf_counter() - wall,
+                                             writer.n, cfg.text))
         last["t"] = t
 
     wall = time.perf_counter()
@@ -198,4 +199,4 @@ def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=
         os.remove(ck_file)                            # the run is complete
     data, _ = read_snapshots(out)
     return LayerOutcome(out, "ok", int(data["time"].size), float(setup.t_end), int(steps0 + res.steps),
-                        time.perf_counter() - wall, resumed, vtk_writer.pvd.as_posix() if vtk_writer else None)
+                        wall0 + time.perf_counter() - wall, resumed, vtk_writer.pvd.as_posix() if vtk_writer else None)

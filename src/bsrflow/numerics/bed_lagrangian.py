@@ -22,10 +22,11 @@ One step of length Δt (``bed_step``; symplectic Euler for the faces, then the e
    exactly over the step (θ̇ = −A θ^{3/2}: θ ← θ / (1 + A Δt √θ / 2)²), then the history pass
    δ_max ← max(δ_max, δ) (0 where δ ≤ 0).
 
-Mass is exact (fixed μ per cell).  Time step: Δt = cfl · min_j(s_j)/c with c the contact wave
-speed at close packing (the fastest signal; the kinetic sound speed √(p'/ρ) and the diffusion
-numbers are checked by the driver), reduced by the driver where the conduction's explicit limit
-(Δt ≤ (3μ/2) s / (2 κ)) is tighter.
+Mass is exact (fixed μ per cell).  Time step, set by the driver at every save (every
+``save_every``, 10⁻⁴ s by default): Δt = cfl · min_j(s_j)/c with c the contact wave speed at close
+packing (the fastest signal: the kinetic sound speed, ~√θ, is two orders below it), and at most
+a quarter of the explicit limits of the conduction, (3μ/2) s/(2κ), and of the viscous stress,
+μ s/(2ζ) with ζ = λ + 4μ_s/3, at the state of that moment.
 
 :func:`bed_step_numpy` is the plain NumPy twin of :func:`bed_step` (tests: agreement to 1e-12).
 """
@@ -189,7 +190,7 @@ def bed_step_numpy(zf, vf, th, hist, dt, gl, mu, rho_s, d, e, phi_c, k1, k2):
         t0 = max(th[0], 0.0)
         p0 = phi_new[0]
         g0 = constitutive_numpy(p0, 0.0, rho_s, d, e)["g0"]
-        flux[0] = -(1.0 - e * e) * rho_s * p0 * g0 * t0 * np.sqrt(2.0 * t0 / np.pi)
+        flux[0] = -(1.0 - e * e) * rho_s * p0 * g0 * t0 * np.sqrt(t0 / (2.0 * np.pi))
     phi_f = 0.5 * (phi_new[:-1] + phi_new[1:])
     t_f = 0.5 * (np.maximum(th[:-1], 0.0) + np.maximum(th[1:], 0.0))
     flux[1:n] = -constitutive_numpy(phi_f, t_f, rho_s, d, e)["kappa"] * np.diff(th) / (0.5 * (s[:-1] + s[1:]))
@@ -212,9 +213,11 @@ class BedResult:
     """Output of :func:`run_bed` (SI units, floor frame unless said; t = 0 when the floor starts).
 
     t [s] save times; mass_centre [m] height of the mass centre above the floor; top [m] height
-    below which 99 % of the mass lies (the reference's 'top99' of sphere centres); floor_force
+    below which 99 % of the mass lies (close to, not the same as, the reference's 'top99', the
+    99th percentile of the sphere centres: a centre lies up to d/2 below its sphere's top); floor_force
     [N] the floor's reaction on the bed (area × R); floor [m] ϑ(t) (lab); profiles: {phase name:
-    (z [m], φ)} the solid fraction coarse-grained with a Gaussian of σ = d/2 (as the reference's),
+    (z [m], φ)} the continuum's solid fraction convolved with a Gaussian of σ = d/2 (the
+    reference smooths point volumes at the sphere centres with the same kernel),
     averaged over the cycles from 3 on at the floor phases ωt = 0, π/2, π, 3π/2; steps, wall_time
     [s] (the compiled loop and the bookkeeping, compilation excluded), status."""
 
@@ -293,10 +296,13 @@ def run_bed(setup, progress=None) -> BedResult:
         smin = float(np.min(np.diff(zf)))
         dt = s.cfl * smin / c
         phi = mu / (s.density * np.diff(zf))
-        kap = constitutive_numpy(phi, th, s.density, s.diameter, s.restitution)["kappa"]
-        kmax = float(np.max(kap))
-        if kmax > 0.0:
+        coef = constitutive_numpy(phi, th, s.density, s.diameter, s.restitution)
+        kmax = float(np.max(coef["kappa"]))
+        if kmax > 0.0:                           # conduction: Δt ≤ (3μ/2) s/(2κ), a quarter of it
             dt = min(dt, 0.25 * 1.5 * mu * smin / kmax)
+        zmax = float(np.max(coef["lambda"] + (4.0 / 3.0) * coef["mu"]))
+        if zmax > 0.0:                           # viscous stress: Δt ≤ μ s/(2ζ), a quarter of it
+            dt = min(dt, 0.25 * mu * smin / zmax)
         return dt
 
     def advance(t0, t1, moving):

@@ -2,7 +2,7 @@
 
 Why a temperature.  The packing continuum alone (the contact law's stress, zero below contact,
 :mod:`bsrflow.physics.packing`) has no pressure in the dilute state: run as the horizontally
-uniform bed it lands as a block and bounces off the floor (flight 41 ms of the 50 ms cycle at
+uniform bed it lands as a block and bounces off the floor (flight 45 ms of the 50 ms cycle at
 Γ = 3 against LIGGGHTS's 27 ms, ``bench/check_bed_1d.py``), where the DEM bed dilates,
 fluidises and lands grain by grain.  The grains' random motion carries momentum and energy; its
 variance θ = ⟨C²⟩/3 [m²/s²] (the granular temperature) is the extra field.  The collisional
@@ -36,11 +36,13 @@ Floor (the vibrated plate, z = 0 in the floor frame; the floor moves as ϑ(t) = 
 impermeable while it pushes, and it cannot pull (Shattuck 2007's cavitation condition): the bed's
 bottom is held at z = 0 while the reaction is ≥ 0, free otherwise; the energy lost in the
 collisions with the floor (restitution e_w, the same law) is the flux
-(1 − e_w²) ρ_s φ g0 θ √(2θ/π) into the floor while in contact.  Top: free surface (σ = 0,
+(1 − e_w²) ρ_s φ g0 θ √(θ/(2π)) into the floor while in contact (the Maxwellian flux of normal
+kinetic energy onto a wall, ρθ√(θ/(2π)), with the contact value g0).  Top: free surface (σ = 0,
 no heat flux).
 
 What is kept and dropped.  Kept: the contact law's K, e, d, ρ_s; the settled packing's φ_c and Z
-(measured on the DEM's own settled bed, reference/liggghts_bed: 0.636 and 5.39), N and g.
+(measured on the DEM's own settled bed, reference/liggghts_bed: 0.636, and 5.31 sphere–sphere
+contacts per sphere; the floor contacts, which make it 5.39, do not stiffen the bulk), N and g.
 Dropped: friction and rotation, anisotropy of θ, the Knudsen layer at the dilute top and at the
 floor (the kinetic relations are those of a dense, near-equilibrium gas), lateral structure (the
 bed is horizontally uniform: this is the 1-D limit of the 3-D bed, which a horizontally uniform
@@ -108,9 +110,11 @@ def dissipation(phi, theta, rho_s, d, e):
 
 @numba.njit(cache=True, inline="always")
 def wall_loss(phi, theta, rho_s, e_w):
-    """Energy flux into the floor from the collisions with it, (1 − e_w²) ρ_s φ g0 θ √(2θ/π) [W/m²]."""
+    """Energy flux into the floor from the collisions with it, (1 − e_w²) ρ_s φ g0 θ √(θ/(2π)) [W/m²]:
+    the Maxwellian flux of normal kinetic energy onto a wall, ρ θ √(θ/(2π)), enhanced by the
+    contact value g0 as the collisional terms are, times the fraction (1 − e_w²) lost."""
     t = max(theta, 0.0)
-    return (1.0 - e_w * e_w) * rho_s * phi * g0_cs(phi) * t * math.sqrt(2.0 * t / math.pi)
+    return (1.0 - e_w * e_w) * rho_s * phi * g0_cs(phi) * t * math.sqrt(t / (2.0 * math.pi))
 
 
 def constitutive_numpy(phi, theta, rho_s, d, e):
@@ -148,7 +152,7 @@ class BedSetup:
     [m²/s²] (the temperature at the start, the DEM bed's residual motion; 0 is an absorbing
     state: without a seed and without shocks θ stays 0), save_every [s].  200 cells and
     cfl 0.4: the Γ = 3 comparison's flight time and mass-centre RMS change by 0.1 % and 0.01 d
-    against 400 cells (docs/model.md).
+    against 400 cells.
     """
 
     n_spheres: int = 2000
@@ -158,7 +162,7 @@ class BedSetup:
     restitution: float = 0.9
     side: float = 0.065
     phi_c: float = 0.636
-    coordination: float = 5.39
+    coordination: float = 5.31
     gravity: float = 9.81
     frequency: float = 20.0
     gamma: float = 3.0
