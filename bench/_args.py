@@ -34,3 +34,18 @@ def list_of(item):
         return [item(part) for part in text.split(",")]
     parse.__name__ = f"comma-separated list of {item.__name__}"
     return parse
+
+
+def merge_json(path: str, key: str, value) -> None:
+    """Put ``value`` under ``key`` in the JSON file ``path`` (kept: the other keys there) and say so."""
+    import json
+    import os
+
+    data = {}
+    if os.path.exists(path):
+        with open(path) as fh:
+            data = json.load(fh)
+    data[key] = value
+    with open(path, "w") as fh:
+        json.dump(data, fh, indent=2)
+    print(f"wrote {path} (key {key})")

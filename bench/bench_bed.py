@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from _args import merge_json
 from bsrflow.numerics.bed_lagrangian import run_bed
 from bsrflow.physics.granular_bed import BedSetup
 
@@ -72,14 +73,7 @@ def main(argv=None):
                    ratio=vib / cont)
         print(f"LIGGGHTS (serial): settling {settle:.1f} s, vibration (3 + 5 cycles) {vib:.1f} s; "
               f"continuum is {vib / cont:.1f}x cheaper")
-    data = {}
-    if os.path.exists(args.json):
-        with open(args.json) as fh:
-            data = json.load(fh)
-    data["bed_gamma3_five_cycles"] = out
-    with open(args.json, "w") as fh:
-        json.dump(data, fh, indent=2)
-    print(f"wrote {args.json} (key bed_gamma3_five_cycles)")
+    merge_json(args.json, "bed_gamma3_five_cycles", out)
 
 
 if __name__ == "__main__":

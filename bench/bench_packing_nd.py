@@ -18,13 +18,13 @@ Machine-dependent figures; writes the key ``packing_nd_step`` into the JSON file
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import time
 
 import numba
 import numpy as np
 
+from _args import merge_json
 from bsrflow.numerics.grid_nd import GridND
 from bsrflow.numerics.packing_nd import EulerianPackingND, PackingLawND
 from bsrflow.physics.motion import HalfSineTaps
@@ -76,6 +76,12 @@ def main(argv=None):
     ap.add_argument("--sizes", type=int, nargs="+", default=[64, 128])
     ap.add_argument("--steps", type=int, default=3)
     args = ap.parse_args(argv)
+    for n in args.sizes:
+        if n < 32:
+            ap.error(f"--sizes {n} outside the valid range [32, inf) (the bed fills the lower half; a smaller "
+                     "box lets the expanding top reach the domain's top within the timed steps)")
+    if args.steps < 1:
+        ap.error(f"--steps {args.steps} outside the valid range [1, inf)")
     folder = os.path.dirname(os.path.abspath(args.json))
     if not os.path.isdir(folder):
         ap.error(f"--json {args.json}: folder {folder} does not exist")
@@ -98,14 +104,7 @@ def main(argv=None):
             print(f"{n}^3: 2-thread parallel efficiency {row['parallel_efficiency_2t']:.2f}")
         out["sizes"][str(n)] = row
     numba.set_num_threads(n_max)
-    data = {}
-    if os.path.exists(args.json):
-        with open(args.json) as fh:
-            data = json.load(fh)
-    data["packing_nd_step"] = out
-    with open(args.json, "w") as fh:
-        json.dump(data, fh, indent=2)
-    print(f"wrote {args.json} (key packing_nd_step)")
+    merge_json(args.json, "packing_nd_step", out)
 
 
 if __name__ == "__main__":
