@@ -341,3 +341,42 @@ def test_bad_inputs_give_clear_errors():
         sim.run(np.zeros((2, 8, 8)), -np.ones((8, 8)), 0.1)
     with pytest.raises(ValueError, match="layer_height"):
         TappedLayer(layer_height=0.004)
+
+
+@pytest.mark.parametrize("integrator", ["euler", "rk"])
+def test_tracers_of_a_horizontally_uniform_state_follow_the_1d_tracers(integrator):
+    """n-D tracers (issue #19): in the embedding case of test above they move as the 1-D
+    solver's tracers (its interpolation, its integrator), their horizontal positions stay put."""
+    from bsrflow.numerics.grid import Grid1D
+    from bsrflow.numerics.solver import Simulation
+    from bsrflow.numerics.solver_nd import _embedding_setup, induced_kernel_1d
+    from bsrflow.physics.model import BSRModel
+
+    dim, nv, nh, W = 3, 40, 4, 3
+    dx, kernel, motion, rho_z, u_z = _embedding_setup(dim, nv, nh, W)
+    dt, t_end = 0.3 * dx / 3.0, 0.08
+    grid = GridND((nh, nh, nv), dx, bc_horizontal="periodic", bc_lower="floor", bc_upper="vacuum")
+    scheme = Scheme(stepper="kutta3", filter=False, dt=dt, tracer_integrator=integrator, name="embedding")
+    sim = SimulationND(BSRModelND(kernel, motion, 9.81), grid, scheme)
+    u0 = np.zeros((dim, nh, nh, nv))
+    u0[-1] = np.broadcast_to(u_z, (nh, nh, nv))
+    z0 = np.array([0.5, 3.3, 7.9, 15.2]) * dx
+    tr0 = np.column_stack([np.array([0.3, 1.7, 2.2, 3.9]) * dx, np.array([3.1, 0.2, 2.5, 1.0]) * dx, z0])
+    res = sim.run(u0, np.broadcast_to(rho_z, (nh, nh, nv)).copy(), t_end, save_times=[0.0, 0.04, t_end],
+                  tracers=tr0)
+    sim1 = Simulation(BSRModel(kernel=induced_kernel_1d(kernel, dim, dx), motion=motion, gravity=9.81),
+                      Grid1D(0.0, nv * dx, nv, "floor", "vacuum"), scheme)
+    r1 = sim1.run(u_z, rho_z, t_end, save_times=[0.0, 0.04, t_end], tracers=z0)
+    np.testing.assert_array_equal(res.tracers[:, :, :2], np.broadcast_to(tr0[:, :2], res.tracers[:, :, :2].shape))
+    moved = np.max(np.abs(r1.tracers[-1] - z0))
+    assert moved > 0.1 * dx
+    assert np.max(np.abs(res.tracers[:, :, 2] - r1.tracers)) <= 1e-12 * moved
+
+
+def test_tracers_are_checked_and_not_mixed_with_checkpoint_events():
+    sim = SimulationND(_model(), GridND((8, 8), DX))
+    u0, rho = np.zeros((2, 8, 8)), np.full((8, 8), 500.0)
+    with pytest.raises(ValueError, match=r"tracers must be a finite array of shape \(n, 2\)"):
+        sim.run(u0, rho, 0.01, tracers=np.zeros((3, 3)))
+    with pytest.raises(ValueError, match="checkpoint events"):
+        sim.run(u0, rho, 0.01, tracers=np.zeros((1, 2)), on_event=lambda *a: None, extra_event_times=[0.005])

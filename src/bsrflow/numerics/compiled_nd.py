@@ -162,6 +162,42 @@ def extend_velocity(u, rho, thr):
                     u[2, i, j, k] = u[2, i, j, m]
 
 
+@numba.njit(cache=True, inline="always")
+def _interp_axis(pos, lo, dx, G, P):
+    """(index, weight) of the linear interpolation at ``pos`` [m] along one padded axis (the 1-D
+    solver's ``interp``: cell centres at lo + (i + ½)Δx, G ghost cells, P padded cells)."""
+    q = (pos - lo) / dx - 0.5 + G
+    if q < 0.0:
+        q = 0.0
+    if q > P - 1.000001:
+        q = P - 1.000001
+    i0 = int(math.floor(q))
+    return i0, q - i0
+
+
+@numba.njit(cache=True)
+def interp_velocity(up, x, y, z, lo, dx, Gx, Gy, Gz, has_y, out):
+    """Trilinear (bilinear in 2-D) interpolation of the padded velocity ``up`` (3, PX, PY, PZ) at
+    the point (x, y, z) [m] into ``out`` (3,)."""
+    _, PX, PY, PZ = up.shape
+    i0, fx = _interp_axis(x, lo[0], dx, Gx, PX)
+    k0, fz = _interp_axis(z, lo[2], dx, Gz, PZ)
+    if has_y:
+        j0, fy = _interp_axis(y, lo[1], dx, Gy, PY)
+    else:
+        j0, fy = 0, 0.0
+    for c in range(3):
+        acc = 0.0
+        for di in range(2):
+            wx = fx if di else 1.0 - fx
+            for dj in range(2 if has_y else 1):
+                wy = (fy if dj else 1.0 - fy) if has_y else 1.0
+                for dk in range(2):
+                    wz = fz if dk else 1.0 - fz
+                    acc += wx * wy * wz * up[c, i0 + di, j0 + dj, k0 + dk]
+        out[c] = acc
+
+
 @numba.njit(cache=True, parallel=True)
 def make_positive_columns(rho):
     """Mass-conserving positivity fix, column by column (the 1-D solver's
@@ -353,7 +389,8 @@ def make_core_nd(kernel_fn, motion_fn):
     @numba.njit(cache=False)
     def advance(u, rho, t, t_end, dt_fixed, cfl, kappa, A, b, c, filt, dims, sx, sy, sz, gx, gy, gz,
                 kx, ky, kz, prz, floor, Gx, Gy, Gz, dx, dA, dB, hc, hwA, hwB, kp, grav, mp, dt_min,
-                rho_max, max_steps, top_tol, top_layers, vac_thr, positivity):
+                rho_max, max_steps, top_tol, top_layers, vac_thr, positivity, tracers, tracer_mode, lo, box,
+                periodic):
         """Advance (u, ρ) in place from t to t_end.
 
         dt: ``dt_fixed`` if > 0, else cfl Δx / (max_j Σ_a |u_a| + sqrt(n κ max ρ)) (the n-D
@@ -384,6 +421,9 @@ def make_core_nd(kernel_fn, motion_fn):
         status = 0
         where = -1
         dt = 0.0
+        nt = tracers.shape[0]
+        vt = np.zeros((s, nt, 3))
+        vbuf = np.zeros(3)
         while t < t_end:
             if dt_fixed > 0.0:
                 dt = dt_fixed
@@ -401,10 +441,41 @@ def make_core_nd(kernel_fn, motion_fn):
             for st in range(s):
                 _axpy_stage(yu, yr, u, rho, ku, kr, st, A, dt)
                 fill_ghosts(yu, yr, up, rp, sx, sy, sz, gx, gy, gz, kx, ky, kz, prz)
+                if tracer_mode == 2 or (tracer_mode == 1 and st == 0):
+                    for n in range(nt):
+                        px, py, pz = tracers[n, 0], tracers[n, 1], tracers[n, 2]
+                        if tracer_mode == 2:
+                            for j in range(st):
+                                px += dt * A[st, j] * vt[j, n, 0]
+                                py += dt * A[st, j] * vt[j, n, 1]
+                                pz += dt * A[st, j] * vt[j, n, 2]
+                        interp_velocity(up, px, py, pz, lo, dx, Gx, Gy, Gz, has_y, vbuf)
+                        for cc in range(3):
+                            vt[st, n, cc] = vbuf[cc]
                 acc_z = -(grav + M(t + c[st] * dt, mp)[2])
                 rhs(acc_z, upf, rpf, PY, PZ, Gx, Gy, Gz, has_y, floor, dx, dA, dB, hc, hwA, hwB, kp,
                     ku[st], kr[st])
             _combine(u, rho, ku, kr, b, dt)
+            for n in range(nt):
+                for cc in range(3):
+                    if tracer_mode == 1:
+                        tracers[n, cc] += dt * vt[0, n, cc]
+                    else:
+                        for j in range(s):
+                            tracers[n, cc] += dt * b[j] * vt[j, n, cc]
+                for cc in range(3):
+                    if cc == 1 and not has_y:
+                        tracers[n, cc] = 0.0
+                        continue
+                    if cc < 2:
+                        rel = tracers[n, cc] - lo[cc]
+                        if periodic:
+                            rel = rel - box[cc] * math.floor(rel / box[cc])
+                        else:
+                            rel = min(max(rel, 0.0), box[cc])
+                        tracers[n, cc] = lo[cc] + rel
+                    elif floor and tracers[n, 2] < lo[2]:
+                        tracers[n, 2] = lo[2]
             t = t_end if last else t + dt
             if vac_thr > 0.0:
                 extend_velocity(u, rho, vac_thr)
@@ -454,5 +525,6 @@ def make_core_nd(kernel_fn, motion_fn):
     core.moving_average = moving_average
     core.extend_velocity = extend_velocity
     core.make_positive_columns = make_positive_columns
+    core.interp_velocity = interp_velocity
     core.advance = advance
     return core

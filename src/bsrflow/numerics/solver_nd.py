@@ -99,6 +99,8 @@ class ResultND:
     wall_time: float = 0.0
     status: str = "ok"
     info: dict = field(default_factory=dict)
+    tracers: np.ndarray | None = None
+    """(nt, n, dim) tracer positions [m] (floor frame) when the run had tracers."""
 
     def mass(self) -> np.ndarray:
         """Total mass Σ ρ Δx^n [kg per unit length in 2-D (per metre of y), kg in 3-D]."""
@@ -120,8 +122,8 @@ class ResultND:
 SCHEME_OPTIONS_ND = frozenset({"stepper", "filter", "cfl", "dt", "name", "check_cfl", "tracer_integrator",
                                "positivity"})
 """The :class:`~bsrflow.numerics.solver.Scheme` options the n-D solver acts on; every other one
-must keep its default (:func:`check_scheme_supported`).  ``tracer_integrator`` is accepted with
-either value because the n-D solver has no tracers (its ResultND has none to integrate)."""
+must keep its default (:func:`check_scheme_supported`).  ``tracer_integrator`` moves the
+tracers of ``SimulationND.run(..., tracers=...)``."""
 
 
 def check_scheme_supported(scheme: Scheme, supported, where: str):
@@ -249,10 +251,16 @@ class SimulationND:
         return AVERAGES[self.average] if self.scheme.filter else 0
 
     # -- the pieces ---------------------------------------------------------------------------
-    def advance_internal(self, ui, ri, t, t_end, max_steps=None):
+    def advance_internal(self, ui, ri, t, t_end, max_steps=None, tracers=None):
         """Advance internal-layout arrays (see :func:`to_internal`) in place from t to t_end
-        (no jumps, no saving).  Returns (t, steps, status, where_flat_index, dt_last)."""
+        (no jumps, no saving); ``tracers`` (n, 3) [m] internal (x, y, z) positions, moved in place.
+        Returns (t, steps, status, where_flat_index, dt_last)."""
         g, s, tb = self.grid, self.scheme, self.tableau
+        tr = np.zeros((0, 3)) if tracers is None else tracers
+        mode = 0 if tracers is None else (1 if s.tracer_integrator == "euler" else 2)
+        lo3 = np.array([g.lower[0], g.lower[1] if g.dim == 3 else 0.0, g.lower[-1]])
+        box = np.array([g.shape[0] * g.dx, (g.shape[1] * g.dx) if g.dim == 3 else 1.0, g.shape[-1] * g.dx])
+        periodic = all(b == "periodic" for b in g.bc_horizontal)
         (sx, sy, sz), (gx, gy, gz), (kx, ky, kz), prz = self.maps
         Gx, Gy, Gz = self.G
         top_layers = self.W if g.bc_upper == "vacuum" else 0
@@ -262,7 +270,7 @@ class SimulationND:
             self.floor, Gx, Gy, Gz, g.dx, self.dA, self.dB, self.hc, self.hw, self.hwB, self.model.kernel.params,
             self.model.gravity, self.model.motion.params, self.dt_min, self.rho_max,
             int(max_steps or self.max_steps), self.top_tolerance, top_layers, self.vacuum_density,
-            bool(s.positivity))
+            bool(s.positivity), tr, mode, lo3, box, periodic)
 
     def _padded(self, ui, ri):
         Gx, Gy, Gz = self.G
@@ -309,7 +317,7 @@ class SimulationND:
 
     # -- a whole run --------------------------------------------------------------------------
     def run(self, u0, rho0, t_end, *, t_start=0.0, save_every=None, save_times=None, observers=(),
-            progress=None, extra_event_times=(), on_event=None, restart=False) -> ResultND:
+            progress=None, extra_event_times=(), on_event=None, restart=False, tracers=None) -> ResultND:
         """Integrate from t_start to t_end [s], saving snapshots, through the run controller
         shared with the 1-D solvers (:func:`bsrflow.numerics.controller.drive_events`).
 
@@ -324,6 +332,10 @@ class SimulationND:
             bit for bit (checkpoints).
         restart: the initial state is one saved by an earlier run: skip the check rho0 >= 0
             (without the positivity fix round-off level negative densities occur).
+        tracers: (n, dim) initial positions [m] (floor frame, user axes), moved with the
+            interpolated velocity by ``scheme.tracer_integrator`` ('euler' the seed's, 'rk' the
+            tableau); saved as ``ResultND.tracers`` (nt, n, dim).  Not combined with checkpoint
+            events (refused: their state would not include the tracers).
         Raises :class:`bsrflow.numerics.solver.SimulationError` (``.result`` keeps the
         snapshots, ``.position`` is the cell centre (m) where the monitor fired, or None).
         """
@@ -343,9 +355,21 @@ class SimulationND:
         if not (np.isfinite(t_start) and np.isfinite(t_end) and t_end > t_start):
             raise ValueError(f"t_end = {t_end!r} must be finite and greater than t_start = {t_start!r}")
         save_times = save_schedule(t_start, t_end, save_every, save_times)
+        tri = None
+        if tracers is not None:
+            arr = np.array(tracers, dtype=float)
+            if arr.ndim != 2 or arr.shape[1] != g.dim or not np.all(np.isfinite(arr)):
+                raise ValueError(f"tracers must be a finite array of shape (n, {g.dim}) [m]")
+            if on_event is not None:
+                raise ValueError("tracers with checkpoint events (on_event) are not supported: the event state "
+                                 "does not carry the tracers")
+            tri = np.zeros((arr.shape[0], 3))
+            tri[:, 0], tri[:, 2] = arr[:, 0], arr[:, -1]
+            if g.dim == 3:
+                tri[:, 1] = arr[:, 1]
         motion = self.model.motion
         jumps = motion.jumps_between(t_start, t_end)
-        ts, us, rs, fl = [], [], [], []
+        ts, us, rs, fl, trs = [], [], [], [], []
         wall0 = _time.perf_counter()
         total = 0
 
@@ -355,6 +379,8 @@ class SimulationND:
             us.append(uu)
             rs.append(rr)
             fl.append(motion.state(t)[0])
+            if tri is not None:
+                trs.append(tri[:, [0, 1, 2] if g.dim == 3 else [0, 2]].copy())
             for obs in observers:
                 obs(t, uu, rr)
             if progress is not None:
@@ -365,12 +391,14 @@ class SimulationND:
                             np.array(rs).reshape((len(ts),) + g.shape), np.array(fl), g, total,
                             _time.perf_counter() - wall0, status,
                             {"scheme": self.scheme.to_dict(), "average": self.average, "grid": g.to_dict(),
-                             "model": self.model.to_dict(), "kernel_radius_cells": self.W})
+                             "model": self.model.to_dict(), "kernel_radius_cells": self.W},
+                            None if tri is None else np.array(trs).reshape(len(ts), tri.shape[0], g.dim))
 
         def advance(t, ev):
             nonlocal total
             t_new, steps, status, where, dt_last = self.advance_internal(ui, ri, t, ev,
-                                                                         max_steps=self.max_steps - total)
+                                                                         max_steps=self.max_steps - total,
+                                                                         tracers=tri)
             total += steps
             if status != 0:
                 pos = self._position(where)
