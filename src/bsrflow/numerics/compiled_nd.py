@@ -375,22 +375,27 @@ def _cell_parts(kernel_fn):
 
 
 @functools.lru_cache(maxsize=32)
-def make_core_nd(kernel_fn, motion_fn):
+def make_core_nd(kernel_fn, motion_fn, positivity=False, tracers=False):
     """Build the compiled n-D functions for one (kernel, motion) pair of numba functions.
 
     Returns a namespace with ``fill_ghosts``, ``rhs``, ``moving_average``,
     ``extend_velocity`` and ``advance``.  Everything else (tableau, boundary maps, quadrature
     table, parameters) is runtime data.
+
+    ``positivity`` and ``tracers`` are compile-time switches of the step loop (the positivity
+    pass, the tracer moves): a loop without them is compiled without their code (the runtime
+    branch alone cost the seed's 3-D step 20 % at 64³, ``bench/bench_nd.py``).
     """
     parts = _cell_parts(kernel_fn)
     M = motion_fn
+    POSITIVITY = bool(positivity)
+    TRACERS = bool(tracers)
     rhs = parts.rhs
 
     @numba.njit(cache=False)
     def advance(u, rho, t, t_end, dt_fixed, cfl, kappa, A, b, c, filt, dims, sx, sy, sz, gx, gy, gz,
                 kx, ky, kz, prz, floor, Gx, Gy, Gz, dx, dA, dB, hc, hwA, hwB, kp, grav, mp, dt_min,
-                rho_max, max_steps, top_tol, top_layers, vac_thr, positivity, tracers, tracer_mode, lo, box,
-                periodic):
+                rho_max, max_steps, top_tol, top_layers, vac_thr, tracers, tracer_mode, lo, box, periodic):
         """Advance (u, ρ) in place from t to t_end.
 
         dt: ``dt_fixed`` if > 0, else cfl Δx / (max_j Σ_a |u_a| + sqrt(n κ max ρ)) (the n-D
@@ -441,7 +446,7 @@ def make_core_nd(kernel_fn, motion_fn):
             for st in range(s):
                 _axpy_stage(yu, yr, u, rho, ku, kr, st, A, dt)
                 fill_ghosts(yu, yr, up, rp, sx, sy, sz, gx, gy, gz, kx, ky, kz, prz)
-                if tracer_mode == 2 or (tracer_mode == 1 and st == 0):
+                if TRACERS and (tracer_mode == 2 or (tracer_mode == 1 and st == 0)):
                     for n in range(nt):
                         px, py, pz = tracers[n, 0], tracers[n, 1], tracers[n, 2]
                         if tracer_mode == 2:
@@ -456,7 +461,7 @@ def make_core_nd(kernel_fn, motion_fn):
                 rhs(acc_z, upf, rpf, PY, PZ, Gx, Gy, Gz, has_y, floor, dx, dA, dB, hc, hwA, hwB, kp,
                     ku[st], kr[st])
             _combine(u, rho, ku, kr, b, dt)
-            for n in range(nt):
+            for n in range(nt if TRACERS else 0):
                 for cc in range(3):
                     if tracer_mode == 1:
                         tracers[n, cc] += dt * vt[0, n, cc]
@@ -482,7 +487,7 @@ def make_core_nd(kernel_fn, motion_fn):
             if filt > 0:
                 fill_ghosts(u, rho, up, rp, sx, sy, sz, gx, gy, gz, kx, ky, kz, prz)
                 moving_average(u, rho, up, rp, Gx, Gy, Gz, has_y, floor, dims, filt)
-            if positivity:
+            if POSITIVITY:
                 make_positive_columns(rho)
             steps += 1
             _row_stats(u, rho, smax, rmax, bad)

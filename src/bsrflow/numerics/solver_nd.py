@@ -221,7 +221,8 @@ class SimulationND:
         self.max_steps = int(max_steps)
         self.vacuum_density = float(vacuum_density)
         self.floor = grid.bc_lower == "floor"
-        self.core = make_core_nd(model.kernel.compiled, model.motion.fn)
+        self.core = make_core_nd(model.kernel.compiled, model.motion.fn, positivity=bool(self.scheme.positivity))
+        self._core_tracers = None           # the step loop with tracer moves, compiled when first needed
 
     def _three(self, a):
         a = np.asarray(a)
@@ -264,13 +265,19 @@ class SimulationND:
         (sx, sy, sz), (gx, gy, gz), (kx, ky, kz), prz = self.maps
         Gx, Gy, Gz = self.G
         top_layers = self.W if g.bc_upper == "vacuum" else 0
-        return self.core.advance(
+        core = self.core
+        if tracers is not None:
+            if self._core_tracers is None:
+                self._core_tracers = make_core_nd(self.model.kernel.compiled, self.model.motion.fn,
+                                                  positivity=bool(s.positivity), tracers=True)
+            core = self._core_tracers
+        return core.advance(
             ui, ri, float(t), float(t_end), float(s.dt or 0.0), float(s.cfl), float(self.kappa),
             tb.a, tb.b, tb.c, self._filter_code(), g.dim, sx, sy, sz, gx, gy, gz, kx, ky, kz, prz,
             self.floor, Gx, Gy, Gz, g.dx, self.dA, self.dB, self.hc, self.hw, self.hwB, self.model.kernel.params,
             self.model.gravity, self.model.motion.params, self.dt_min, self.rho_max,
             int(max_steps or self.max_steps), self.top_tolerance, top_layers, self.vacuum_density,
-            bool(s.positivity), tr, mode, lo3, box, periodic)
+            tr, mode, lo3, box, periodic)
 
     def _padded(self, ui, ri):
         Gx, Gy, Gz = self.G
