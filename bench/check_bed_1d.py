@@ -11,8 +11,8 @@ for an isotropic packing with Z contacts per sphere compressed uniaxially (affin
 σ_zz = (3 Z φ_c K / (5 π d)) ε, i.e. a layer stiffness K_eff = 3 Z φ_c K A / (5 π d²); the
 unloading K_eff/e².  φ_c = 0.636 and Z = 5.31 (sphere–sphere) are the settled LIGGGHTS bed's (README there).
 The floor: z = A_f sin ωt from t = 0 (moving up at A_f ω at the start, as the deck's), after
-0.5 s of settling on the resting floor.  Flight time per cycle: the floor force (1-ms moving
-average) below 0.1 Mg, the LIGGGHTS post-processing's definition.
+0.5 s of settling on the resting floor.  Flight time per cycle: that of ``bsrflow compare-bed``
+(:func:`bsrflow.analysis.compare_bed.flights_from_force`, the LIGGGHTS post-processing's).
 
 Prints the flight time of each cycle, the mean of the last six (LIGGGHTS's steady measure) beside
 LIGGGHTS's, and the RMS difference of the mass-centre height over cycles 5–10 in d.  Writes
@@ -29,6 +29,7 @@ import numba
 import numpy as np
 
 from _args import positive_float, positive_int
+from bsrflow.analysis.compare_bed import flight_per_cycle, flights_from_force
 from bsrflow.numerics import packing_kernels as pk
 from bsrflow.physics.packing import packing_force
 
@@ -74,14 +75,6 @@ def run_bed(gamma, restitution, ppd, cycles=11, n=2000, side=13.0, d=0.005, rho_
     return ts, com, force, total * g, 1.0 / f, total / m_eff
 
 
-def flight_times(ts, force, weight, period):
-    k = int(round(1e-3 / (ts[1] - ts[0])))
-    off = np.convolve(force, np.ones(k) / k, mode="same") < 0.1 * weight
-    dt = ts[1] - ts[0]
-    return np.array([off[(ts >= c * period) & (ts < (c + 1) * period)].sum() * dt
-                     for c in range(int(round(ts[-1] / period)))])
-
-
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--gammas", type=positive_float, nargs="+", default=[1.5, 3.0, 4.0])
@@ -97,7 +90,7 @@ def main(argv=None):
           "over cycles 5-10")
     for gamma in args.gammas:
         ts, com, force, weight, period, layers = run_bed(gamma, args.restitution, args.ppd)
-        fl = flight_times(ts, force, weight, period) * 1e3
+        fl = flight_per_cycle(flights_from_force(ts, force, weight), period, int(round(ts[-1] / period))) * 1e3
         row = table[np.isclose(table["gamma"], gamma)]
         dem = f"{row['flight_time_mean_last6_s'][0] * 1e3:.1f}" if row.size else "–"
         traj = REF / "results" / f"gamma_{gamma:.2f}_N2000_L13d{tag}" / "trajectory.csv"
@@ -108,7 +101,7 @@ def main(argv=None):
             diff = np.interp(data["t_s"][sel], ts, com) - data["com_rel_m"][sel]
             rms = f"{math.sqrt(float(np.mean(diff ** 2))) / d:.2f} d"
         print(f"Γ = {gamma:g} ({layers:.2f} layers): cycles {' '.join(f'{x:.1f}' for x in fl)}; last 6: "
-              f"{fl[5:].mean():.1f} (LIGGGHTS {dem}); mass-centre RMS {rms}")
+              f"{np.nanmean(fl[5:]):.1f} (LIGGGHTS {dem}); mass-centre RMS {rms}")
 
 
 if __name__ == "__main__":

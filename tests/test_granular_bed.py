@@ -24,6 +24,9 @@ def test_constitutive_relations_match_numpy():
                            ("gamma", gb.dissipation, (1200.0, 0.005, 0.9))):
         got = np.array([fn(p, t, *args) for p, t in zip(phi, th)])
         np.testing.assert_allclose(got, ref[name], rtol=1e-12, atol=0.0)
+    fused = np.array([gb.pressure_and_viscosity(p, t, 1200.0, 0.005, 0.9) for p, t in zip(phi, th)])
+    np.testing.assert_allclose(fused[:, 0], ref["p"], rtol=1e-12, atol=0.0)
+    np.testing.assert_allclose(fused[:, 1], ref["lambda"] + 4.0 / 3.0 * ref["mu"], rtol=1e-12, atol=0.0)
     # the dilute limit of the pressure is the ideal gas ρ θ; g0 -> 1
     assert gb.g0_cs(1e-9) == pytest.approx(1.0)
     assert gb.kinetic_pressure(1e-6, 0.1, 1200.0, 0.9) == pytest.approx(1200.0 * 1e-6 * 0.1, rel=1e-5)

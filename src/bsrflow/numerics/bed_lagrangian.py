@@ -38,27 +38,12 @@ import math
 import numba
 import numpy as np
 
-from ..physics.granular_bed import (SQRT_PI, bulk_viscosity, conductivity, constitutive_numpy, dissipation,
-                                    g0_cs, kinetic_pressure, shear_viscosity, wall_loss)
+from ..physics.granular_bed import (conductivity, constitutive_numpy, dissipation, pressure_and_viscosity,
+                                    wall_loss)
 from ..physics.packing import history_update, packing_force, packing_force_numpy
 
 __all__ = ["bed_step", "bed_advance", "bed_step_numpy", "floor_reaction", "static_bed", "run_bed",
            "BedResult"]
-
-
-@numba.njit(cache=True, inline="always")
-def _cell_coefficients(phi, theta, rho_s, d, e):
-    """(p [Pa], λ + 4μ/3 [Pa s]) of :mod:`~bsrflow.physics.granular_bed` with one g0 and one
-    square root (the same formulas as its functions, tested against them)."""
-    g = g0_cs(phi)
-    t = max(theta, 0.0)
-    st = math.sqrt(t)
-    ope = 1.0 + e
-    p = rho_s * phi * theta * (1.0 + 2.0 * ope * phi * g)
-    coll = rho_s * d * phi * phi * g * ope * st / SQRT_PI          # ρ_s d φ² g0 (1+e) √(θ/π)
-    lam = (4.0 / 3.0) * coll
-    mu_s = 10.0 * rho_s * d * st * SQRT_PI / (96.0 * ope * g) * (1.0 + 0.8 * ope * phi * g) ** 2 + 0.8 * coll
-    return p, lam + (4.0 / 3.0) * mu_s
 
 
 @numba.njit(cache=True)
@@ -69,7 +54,7 @@ def bed_step(zf, vf, th, hist, sig, pq, flux, dt, gl, mu, rho_s, d, e, phi_c, k1
     for j in range(n):
         s = zf[j + 1] - zf[j]
         phi = mu / (rho_s * s)
-        p, zeta = _cell_coefficients(phi, th[j], rho_s, d, e)
+        p, zeta = pressure_and_viscosity(phi, th[j], rho_s, d, e)
         q = -zeta * (vf[j + 1] - vf[j]) / s
         pq[j] = p + q
         sig[j] = p + q + packing_force(d * (1.0 - phi_c / phi), hist[j], k1, k2)
@@ -124,10 +109,8 @@ def floor_reaction(zf, vf, th, hist, mu, rho_s, d, e, phi_c, k1, k2, gl):
         return 0.0
     s = zf[1] - zf[0]
     phi = mu / (rho_s * s)
-    t = th[0]
-    dv = vf[1] - vf[0]
-    q = -(bulk_viscosity(phi, t, rho_s, d, e) + (4.0 / 3.0) * shear_viscosity(phi, t, rho_s, d, e)) * dv / s
-    sig0 = kinetic_pressure(phi, t, rho_s, e) + q + packing_force(d * (1.0 - phi_c / phi), hist[0], k1, k2)
+    p, zeta = pressure_and_viscosity(phi, th[0], rho_s, d, e)
+    sig0 = p - zeta * (vf[1] - vf[0]) / s + packing_force(d * (1.0 - phi_c / phi), hist[0], k1, k2)
     r = sig0 + 0.5 * mu * gl
     return r if r > 0.0 else 0.0
 

@@ -115,6 +115,15 @@ def _axis_face(wr, wu, wt1, wt2, wh, jl, jr, d, m, k1, k2, c_cap, rho_tiny):
 
 
 @numba.njit(cache=True, inline="always")
+def _line_fluxes(wr, wu, wa, wb, wh, n, fl, d, m, k1, k2, c_cap, rho_tiny):
+    """Fluxes ``fl`` (5, n + 1) at the n + 1 faces of one padded line of n cells (ghosts filled)."""
+    for f in range(n + 1):
+        F = _axis_face(wr, wu, wa, wb, wh, f + 1, f + 2, d, m, k1, k2, c_cap, rho_tiny)
+        for c in range(5):
+            fl[c, f] = F[c]
+
+
+@numba.njit(cache=True, inline="always")
 def _primitive(q, c, i, j, k, rho_tiny):
     r = q[RHO, i, j, k]
     if r > rho_tiny:
@@ -149,10 +158,7 @@ def fv_rhs_nd(q, dq, dim, dx, accel, d, m, k1, k2, c_cap, rho_tiny):
                                                                          wb[2 + g], wh[2 + g])
             for p in range(NZ + 2, NZ + 5):
                 wr[p], wu[p], wa[p], wb[p], wh[p] = 0.0, 0.0, 0.0, 0.0, 0.0
-            for f in range(NZ + 1):
-                F = _axis_face(wr, wu, wa, wb, wh, f + 1, f + 2, d, m, k1, k2, c_cap, rho_tiny)
-                for c in range(5):
-                    fl[c, f] = F[c]
+            _line_fluxes(wr, wu, wa, wb, wh, NZ, fl, d, m, k1, k2, c_cap, rho_tiny)
             for k in range(NZ):
                 dq[RHO, i, j, k] = -(fl[0, k + 1] - fl[0, k]) * inv_dx
                 dq[MZ, i, j, k] = -(fl[1, k + 1] - fl[1, k]) * inv_dx + q[RHO, i, j, k] * accel
@@ -191,10 +197,7 @@ def fv_rhs_nd(q, dq, dim, dx, accel, d, m, k1, k2, c_cap, rho_tiny):
                 wr[nA + 2 + g], wu[nA + 2 + g], wa[nA + 2 + g], wb[nA + 2 + g], wh[nA + 2 + g] = (
                     wr[src_hi + 2], wu[src_hi + 2], wa[src_hi + 2], wb[src_hi + 2], wh[src_hi + 2])
             wr[nA + 4], wu[nA + 4], wa[nA + 4], wb[nA + 4], wh[nA + 4] = wr[4], wu[4], wa[4], wb[4], wh[4]
-            for f in range(nA + 1):
-                F = _axis_face(wr, wu, wa, wb, wh, f + 1, f + 2, d, m, k1, k2, c_cap, rho_tiny)
-                for c in range(5):
-                    fl[c, f] = F[c]
+            _line_fluxes(wr, wu, wa, wb, wh, nA, fl, d, m, k1, k2, c_cap, rho_tiny)
             for ia in range(nA):
                 i, j = (ia, jb) if axis == 0 else (jb, ia)
                 dq[RHO, i, j, kk] += -(fl[0, ia + 1] - fl[0, ia]) * inv_dx
