@@ -36,6 +36,7 @@ from bsrflow.numerics.compiled import direct_integral
 from bsrflow.numerics.fast_integral import _classify, _classify_scaled_elastic
 from bsrflow.numerics.reference import ReferenceScheme
 from bsrflow.numerics.solver import Scheme
+from bsrflow.physics.interaction import fast_integral_for
 from bsrflow.physics.column import ColumnSetup, initial_density, run_bsr_column
 
 DEFAULTS = dict(m0=406.0, kernel_dissipation=0.9, a_over_d=0.75, frequency=10.0)
@@ -174,7 +175,7 @@ def profile(ppd, repeats):
             c.fill_ghosts_below(upc, rpc, t, up, rp, G, 1, 2, 0.0, g.dx, bp, 0)
         c.fill_ghosts_below(u, r, t, up, rp, G, 1, 2, 0.0, g.dx, bp, n_act + 1)
 
-    fast = sim.model.kernel.fast_integral
+    fast = fast_integral_for(sim.model.kernel)
     direct = direct_integral(sim.model.kernel.compiled)
     uu, rr = u.copy(), r.copy()
     fac5 = np.ones(5)
@@ -183,7 +184,7 @@ def profile(ppd, repeats):
         "fill_ghosts": (fills_of_a_step, 1),
         "rhs_with_fast_integral": (lambda: c.rhs(t, up, rp, G, hi, 0.0, g.dx, W, sim.qz, sim.qw, kp,
                                                  sim.model.gravity, sim.model.external_params,
-                                                 sim.model.motion.params, du, dr, 1, 0.0, sim.kappa, r,
+                                                 sim.model.motion.params, du, dr, 1, 0.0, sim.wave_speed_params, r,
                                                  sim.vacuum_density, 0.0, 0.0), stages),
         "extend_velocity": (lambda: c.extend_velocity(uu[:n_act], r[:n_act], sim.vacuum_density), 1),
         "moving_average": (lambda: c.moving_average(uu[:n_act], rr[:n_act], up, rp, G, 1), 1),

@@ -141,3 +141,49 @@ def test_density_floor_out_of_range_is_a_clear_error(floor, vacuum):
     grid = Grid1D(0.0, 1.0, 60, "floor", "vacuum")
     with pytest.raises(ValueError, match=r"density_floor = .* outside the valid range \[0, "):
         Simulation(_model(("floor", "vacuum")), grid, vacuum_density=vacuum, density_floor=floor)
+
+
+def _core():
+    grid = Grid1D(0.0, 1.0, 60, "floor", "vacuum")
+    return Simulation(_model(("floor", "vacuum")), grid, Scheme.preset("seed")).core
+
+
+def test_step_pieces_against_numpy():
+    """The compiled loop's separate pieces (the stages' combination, the embedded error norm, the
+    compression monitor, the state checks) against NumPy forms of the same formulas."""
+    core = _core()
+    rng = np.random.default_rng(4)
+    s, N = 3, 50
+    b, bhat = np.array([1 / 6, 1 / 6, 2 / 3]), np.array([0.5, 0.5, 0.0])
+    ku, kr = rng.normal(size=(s, N)), rng.normal(size=(s, N))
+    u, rho = rng.normal(size=N), rng.uniform(0.0, 2.0, N)
+    dt, hi = 1e-3, 40
+    # combine: y += Δt Σ b_j k_j below hi, tracers by the tableau, kept above the floor
+    uc, rc, tr = u.copy(), rho.copy(), np.array([0.05, -0.001 + 0.0, 0.5])
+    vt = rng.normal(size=(s, 3))
+    tr_ref = np.maximum(tr + dt * (b @ vt), 0.0)
+    core.combine(uc, rc, dt, b, ku, kr, hi, tr, 2, vt, True, 0.0)
+    np.testing.assert_allclose(uc[:hi], u[:hi] + dt * (b @ ku)[:hi], rtol=1e-14, atol=1e-16)
+    np.testing.assert_array_equal(uc[hi:], u[hi:])
+    np.testing.assert_allclose(rc[:hi], rho[:hi] + dt * (b @ kr)[:hi], rtol=1e-14, atol=1e-16)
+    np.testing.assert_allclose(tr, tr_ref, rtol=1e-14, atol=1e-16)
+    # error norm, vacuum cells' velocity error not counted
+    thr = 0.3
+    eu = np.abs(dt * ((b - bhat) @ ku)) / (1e-6 + 1e-3 * np.abs(u))
+    eu[rho < thr] = 0.0
+    er = np.abs(dt * ((b - bhat) @ kr)) / (1e-7 + 1e-3 * np.abs(rho))
+    ref = max(eu[:hi].max(), er[:hi].max())
+    assert core.error_norm(u, rho, dt, b, bhat, ku, kr, hi, 1e-6, 1e-7, 1e-3, thr) == pytest.approx(ref, rel=1e-14)
+    # compression monitor
+    comp = -(u[2:] - u[:-2]) / (2 * 0.01) * dt
+    worst, where = core.compression_monitor(u, dt, 0.01, N)
+    assert worst == pytest.approx(max(comp.max(), 0.0), rel=1e-14) and where == int(np.argmax(comp)) + 1
+    # state checks: non-finite, above rho_max, material at a vacuum top, fine
+    assert core.check_state(u, rho, N, 0.0, 0.0, 2, 3) == (0, -1)
+    bad = u.copy()
+    bad[7] = np.nan
+    assert core.check_state(bad, rho, N, 0.0, 0.0, 2, 3) == (1, 7)
+    assert core.check_state(u, rho, N, 1.5, 0.0, 2, 3)[0] == 2
+    top = rho.copy()
+    top[-1] = 1.0
+    assert core.check_state(u, top, N, 0.0, 1e-3, 2, 3) == (5, N - 4 + int(np.argmax(top[-4:] > 1e-3)))

@@ -65,19 +65,23 @@ def direct_integral(kernel_fn):
 
 
 @functools.lru_cache(maxsize=64)
-def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
+def make_core(integral_fn, external_fn, motion_fn, boundary_fn, wave_speed_fn):
     """Build the compiled functions for one combination of physics functions.
 
     ``integral_fn(up, rp, G, N, W, qz, qw, kp, out)`` computes the interaction integral at
     every cell (see :func:`make_direct_integral`; a faster algorithm for a particular kernel
     can be substituted), ``external_fn(t, x, u, p)``, ``boundary_fn(t, x, p) -> (u, rho)``
-    and ``motion_fn(t, p) -> (ϑ, ϑ', ϑ'')`` are numba-compiled functions.
+    and ``motion_fn(t, p) -> (ϑ, ϑ', ϑ'')`` are numba-compiled functions;
+    ``wave_speed_fn(rho_max, p) -> c`` [m/s] is the interaction's wave-speed bound
+    (:meth:`bsrflow.physics.interaction.Interaction.compiled_wave_speed`), used for the CFL step
+    and the dissipations' speed with the parameter array ``wsp`` the functions take.
     Returns a namespace with ``fill_ghosts``, ``rhs``, ``moving_average`` and ``advance``.
     """
     INTEGRAL = integral_fn
     E = external_fn
     M = motion_fn
     B = boundary_fn
+    WS = wave_speed_fn
 
     @numba.njit(cache=False)
     def fill_ghosts(u, rho, t, up, rp, G, bcl, bch, xlo, dx, bp):
@@ -150,14 +154,14 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
         return ((sr > 0.0) & (d2r > tau * sr)) | ((su > 0.0) & (d2u > tau * su))
 
     @numba.njit(cache=False)
-    def rhs(t, up, rp, G, N, xlo, dx, W, qz, qw, kp, grav, ep, mp, du, dr, bcl, hyper, kappa, rho_mat, thr,
+    def rhs(t, up, rp, G, N, xlo, dx, W, qz, qw, kp, grav, ep, mp, du, dr, bcl, hyper, wsp, rho_mat, thr,
             sel2, sel_tau):
         """Semi-discrete right-hand side (4.13)-(4.14) at every cell from padded arrays.
 
         ``hyper`` (κ4 > 0): fourth-difference dissipation -κ4 s/Δx δ⁴q.  ``sel2`` (κ2 > 0):
         sensor-switched second-difference dissipation  +κ2 s/Δx δ²q  at the faces next to cells
-        whose smoothness sensor (:func:`sensor_on`) exceeds ``sel_tau``.  s = max|u| + sqrt(κ max ρ)
-        [m/s] for both; ``rho_mat``, ``thr``: with thr > 0 max|u| is taken over the material
+        whose smoothness sensor (:func:`sensor_on`) exceeds ``sel_tau``.  s = max|u| + c(max ρ)
+        [m/s] for both (c the interaction's bound, ``WS(ρ, wsp)``); ``rho_mat``, ``thr``: with thr > 0 max|u| is taken over the material
         cells only (rho_mat[i] >= thr, rho_mat the density at the start of the step): the velocity
         of vacuum cells is an extension with no physical meaning."""
         frame = M(t, mp)[2]
@@ -188,7 +192,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
                 a = abs(uc[i]) if (every or rho_mat[i] >= thr) else 0.0
                 umax = max(umax, a)
                 rmax = max(rmax, rc[i])
-            speed = umax + math.sqrt(kappa * rmax)
+            speed = umax + WS(rmax, wsp)
         if sel2 > 0.0:
             # sensor-switched second-difference dissipation in flux form, F_f = κ2 s/Δx (q_f - q_{f-1})
             # on the faces f (between cells f-1 and f) next to a flagged cell; zero mass flux
@@ -356,14 +360,185 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
         f = q - i0
         return (1.0 - f) * up[i0] + f * up[i0 + 1]
 
+    # -- the step's pieces: the stepper's stages, the error estimate, the combination, the chain
+    # of post-step passes and the state checks, each compiled on its own and composed once by
+    # ``advance`` below (the controller of the compiled loop) ----------------------------------
     @numba.njit(cache=False)
-    def advance(u, rho, t, t_end, dt_fixed, cfl, kappa, A, b, c, filt, bcl, bch, xlo, dx, W, qz, qw,
+    def stages(u, rho, t, dt, A, c, hi, n_copy, up, rp, G, upc, rpc, ku, kr, bcl, bch, xlo, dx, W, qz, qw, kp,
+               grav, ep, mp, bp, hyper, wsp, vac_thr, sel2, sel_tau, tracers, tracer_mode, xt, vt):
+        """The Runge-Kutta stages of one step (the stepper): stage s's state
+        y_s = y + Δt Σ_j a_sj k_j is written into the padded arrays' interiors (cells below
+        ``n_copy``; the stages update cells below ``hi``), the ghost layers filled, the tracers'
+        stage velocities interpolated, and k_s = rhs(t + c_s Δt, y_s) evaluated (4.17)-(4.24)."""
+        N = u.size
+        s = c.size
+        nt = tracers.size
+        for st in range(s):
+            # unsigned loops: about twice as fast as the slice assignment (no wrap-around
+            # code, vectorised)
+            for i in range(np.uint64(n_copy)):
+                upc[i] = u[i]
+            for i in range(np.uint64(n_copy)):
+                rpc[i] = rho[i]
+            for j in range(st):
+                a = A[st, j]
+                if a != 0.0:
+                    for i in range(hi):
+                        upc[i] += dt * a * ku[j, i]
+                        rpc[i] += dt * a * kr[j, i]
+            ts = t + c[st] * dt
+            # ghost layers only (from the interior in place: nothing to copy)
+            fill_ghosts_below(upc, rpc, ts, up, rp, G, bcl, bch, xlo, dx, bp, 0)
+            if tracer_mode == 2 or (tracer_mode == 1 and st == 0):
+                for n in range(nt):
+                    xt[n] = tracers[n]
+                    if tracer_mode == 2:
+                        for j in range(st):
+                            xt[n] += dt * A[st, j] * vt[j, n]
+                    vt[st, n] = interp(up, G, N, xlo, dx, xt[n])
+            rhs(ts, up, rp, G, hi, xlo, dx, W, qz, qw, kp, grav, ep, mp, ku[st], kr[st], bcl, hyper, wsp, rho, vac_thr,
+                sel2, sel_tau)
+
+    @numba.njit(cache=False)
+    def error_norm(u, rho, dt, b, bhat, ku, kr, hi, atol_u, atol_r, rtol, vac_thr):
+        """The embedded error estimate  max_i |Δt Σ_j (b_j - b̂_j) k_j| / (atol + rtol |y|) of u
+        and ρ over the cells below ``hi``; with vac_thr > 0 the velocity error of vacuum cells (an
+        extension) is not counted."""
+        s = b.size
+        err = 0.0
+        for i in range(hi):
+            eu = 0.0
+            er = 0.0
+            for j in range(s):
+                eu += (b[j] - bhat[j]) * ku[j, i]
+                er += (b[j] - bhat[j]) * kr[j, i]
+            eu = abs(dt * eu) / (atol_u + rtol * abs(u[i]))
+            if vac_thr > 0.0 and rho[i] < vac_thr:
+                eu = 0.0
+            er = abs(dt * er) / (atol_r + rtol * abs(rho[i]))
+            if eu > err:
+                err = eu
+            if er > err:
+                err = er
+        return err
+
+    @numba.njit(cache=False)
+    def compression_monitor(u, dt, dx, tail):
+        """max_i (-(u_{i+1} - u_{i-1}) / (2Δx)) Δt on the start-of-step velocity (0 on the uniform
+        tail) and its cell: the gradient-catastrophe monitor."""
+        N = u.size
+        worst = 0.0
+        where = -1
+        for i in range(1, min(N - 1, tail + 1)):
+            comp = -(u[i + 1] - u[i - 1]) / (2.0 * dx) * dt
+            if comp > worst:
+                worst = comp
+                where = i
+        return worst, where
+
+    @numba.njit(cache=False)
+    def combine(u, rho, dt, b, ku, kr, hi, tracers, tracer_mode, vt, floor_tracers, xlo):
+        """y += Δt Σ_j b_j k_j on the cells below ``hi``; the tracers by their integrator
+        (1: forward Euler with the start-of-step velocity, 2: the tableau), kept above a floor."""
+        s = b.size
+        nt = tracers.size
+        for j in range(s):
+            bj = b[j]
+            if bj != 0.0:
+                for i in range(hi):
+                    u[i] += dt * bj * ku[j, i]
+                    rho[i] += dt * bj * kr[j, i]
+        if tracer_mode == 1:
+            for n in range(nt):
+                tracers[n] += dt * vt[0, n]
+        elif tracer_mode == 2:
+            for n in range(nt):
+                for j in range(s):
+                    tracers[n] += dt * b[j] * vt[j, n]
+        if nt > 0 and floor_tracers:
+            for n in range(nt):
+                if tracers[n] < xlo:  # floor
+                    tracers[n] = xlo
+
+    @numba.njit(cache=False)
+    def post_step(u, rho, t, hi, can_skip, filt, positivity, vac_thr, sel_tau, sel2, rho_floor, up, rp, G, bcl,
+                  bch, xlo, dx, bp, wsp):
+        """The chain of post-step passes, in order: the positivity fix, the velocity extension
+        into the vacuum, the moving average (after (4.24)) or the selective average, the density
+        floor.  With the vacuum skip they run on the cells below n_act = hi + 2 only: above, ρ = 0
+        and (after the extension) u is the top material cell's velocity c, so the extension, the
+        moving average (of c, c, c) and the floor would give every cell there the same value,
+        which is written directly (bit for bit the same; tested).  Returns (n_act, material):
+        the cells above n_act hold ρ = 0 and one velocity; whether any cell holds material."""
+        N = u.size
+        material = False
+        n_act = N
+        if can_skip and (filt or not (sel_tau > 0.0 and sel2 <= 0.0)):
+            n_act = min(N, hi + 2)
+        if positivity:
+            make_positive(rho[:n_act])      # ρ = 0 above: neither negative nor a donor
+        top_u = 0.0
+        if vac_thr > 0.0:
+            top = extend_velocity(u[:n_act], rho[:n_act], vac_thr)
+            material = top >= 0
+            if n_act < N:
+                if top < 0:
+                    n_act = N               # no material: the whole grid as before
+                else:
+                    top_u = u[top]
+                    u[n_act] = top_u        # read by the moving average of cell n_act - 1
+        if filt:
+            fill_ghosts_below(u, rho, t, up, rp, G, bcl, bch, xlo, dx, bp, n_act + 1)
+            moving_average(u[:n_act], rho[:n_act], up, rp, G, bcl)
+            if n_act < N:
+                top_u = 0.25 * (top_u + 2.0 * top_u + top_u)
+        elif sel_tau > 0.0 and sel2 <= 0.0:
+            fill_ghosts(u, rho, t, up, rp, G, bcl, bch, xlo, dx, bp)
+            umax = 0.0
+            rmax = 0.0
+            for i in range(N):
+                if abs(u[i]) > umax:
+                    umax = abs(u[i])
+                if rho[i] > rmax:
+                    rmax = rho[i]
+            selective_average(u, rho, up, rp, G, bcl, sel_tau, umax + WS(rmax, wsp))
+        if rho_floor > 0.0:
+            # vacuum debris: |ρ| below the floor is set to 0 at the end of every step (above
+            # hi + 1 ρ is exactly 0 already: the stages leave it, the moving average spreads
+            # by one cell)
+            for i in range(min(N, hi + 2)):
+                r = rho[i]
+                rho[i] = 0.0 if abs(r) < rho_floor else r
+        if n_act < N:
+            u[n_act:] = top_u
+        return n_act, material
+
+    @numba.njit(cache=False)
+    def check_state(u, rho, n_act, rho_max, top_tol, bch, W):
+        """The state checks after a step: (status, cell) with status 1 a non-finite value, 2 a
+        density above rho_max (> 0), 5 material within the kernel's reach of a vacuum top, else 0
+        (the cells above n_act are finite and empty)."""
+        N = u.size
+        for i in range(n_act):
+            if not (math.isfinite(u[i]) and math.isfinite(rho[i])):
+                return 1, i
+            if rho_max > 0.0 and rho[i] > rho_max:
+                return 2, i
+        if top_tol > 0.0 and bch == 2:
+            for i in range(max(0, N - 1 - W), N):
+                if rho[i] > top_tol:
+                    return 5, i
+        return 0, -1
+
+    @numba.njit(cache=False)
+    def advance(u, rho, t, t_end, dt_fixed, cfl, wsp, A, b, c, filt, bcl, bch, xlo, dx, W, qz, qw,
                 kp, grav, ep, mp, bp, dt_min, rho_max, max_steps, strain_limit, top_tol,
                 tracers, tracer_mode, vac_thr, hyper, positivity, sel_tau, bhat, rtol, atol_u, atol_r,
                 err_order, counters, skip_vacuum, sel2, rho_floor):
         """Advance (u, rho, tracers) in place from t to t_end.
 
-        dt: ``dt_fixed`` if > 0, else cfl Δx / (max|u| + sqrt(κ max ρ)); the last step is
+        dt: ``dt_fixed`` if > 0, else cfl Δx / (max|u| + c(max ρ)), c = ``WS(ρ, wsp)`` the
+        interaction's bound (for the seed's kernel √(κρ)); the last step is
         shortened to land on t_end.  tracer_mode: 0 none, 1 forward Euler with the velocity
         at the start of the step (the seed's), 2 the field's Runge-Kutta tableau with the
         stage velocity fields.  Returns (t, steps, status, where_index, dt_last).
@@ -410,6 +585,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
         dt_prop = 1e300
         can_skip = skip_vacuum and vac_thr > 0.0 and bch == 2
         reach = 2 if (hyper > 0.0 or sel2 > 0.0) else 1
+        floor_tracers = bcl == 1 or bcl == 4
         hi = N
         # the skip is exact only when the extension will overwrite the vacuum's velocities:
         # there is material at the start of the step (kept up to date from the extension)
@@ -420,7 +596,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
                     material = True
                     break
         # tail: u[tail:] all equal u[N-1] and ρ[tail:] = 0 (set by the restricted post-step
-        # passes below; N: nothing known), so that whole-grid maxima need not read it
+        # passes; N: nothing known), so that whole-grid maxima need not read it
         tail = N
         while t < t_end:
             if can_skip and material:
@@ -448,7 +624,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
                     rmax = max(rmax, rho[i])
                 if tail < N:
                     umax = max(umax, abs(u[N - 1]))
-                speed = umax + math.sqrt(kappa * rmax)
+                speed = umax + WS(rmax, wsp)
                 dt = cfl * dx / speed if speed > 0.0 else t_end - t
             if adaptive and dt_prop < dt:
                 dt = dt_prop
@@ -464,52 +640,13 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
                         umax = abs(u[i])
                         where = i
                 break
-            # Runge-Kutta stages.  A stage reads the padded arrays only below hi + W + reach (its
-            # stencil and window), so with the vacuum skip only those cells are copied
+            # A stage reads the padded arrays only below hi + W + reach (its stencil and
+            # window), so with the vacuum skip only those cells are copied
             n_copy = min(N, hi + W + 2) if can_skip else N
-            for st in range(s):
-                # unsigned loops: about twice as fast as the slice assignment (no wrap-around
-                # code, vectorised)
-                for i in range(np.uint64(n_copy)):
-                    upc[i] = u[i]
-                for i in range(np.uint64(n_copy)):
-                    rpc[i] = rho[i]
-                for j in range(st):
-                    a = A[st, j]
-                    if a != 0.0:
-                        for i in range(hi):
-                            upc[i] += dt * a * ku[j, i]
-                            rpc[i] += dt * a * kr[j, i]
-                ts = t + c[st] * dt
-                # ghost layers only (from the interior in place: nothing to copy)
-                fill_ghosts_below(upc, rpc, ts, up, rp, G, bcl, bch, xlo, dx, bp, 0)
-                if tracer_mode == 2 or (tracer_mode == 1 and st == 0):
-                    for n in range(nt):
-                        xt[n] = tracers[n]
-                        if tracer_mode == 2:
-                            for j in range(st):
-                                xt[n] += dt * A[st, j] * vt[j, n]
-                        vt[st, n] = interp(up, G, N, xlo, dx, xt[n])
-                rhs(ts, up, rp, G, hi, xlo, dx, W, qz, qw, kp, grav, ep, mp, ku[st], kr[st], bcl, hyper, kappa, rho, vac_thr,
-                    sel2, sel_tau)
+            stages(u, rho, t, dt, A, c, hi, n_copy, up, rp, G, upc, rpc, ku, kr, bcl, bch, xlo, dx, W, qz, qw, kp,
+                   grav, ep, mp, bp, hyper, wsp, vac_thr, sel2, sel_tau, tracers, tracer_mode, xt, vt)
             if adaptive:
-                # embedded error estimate  Δt Σ (b_j - b̂_j) k_j, scaled by atol + rtol |y|; with
-                # vac_thr > 0 the velocity error of vacuum cells (an extension) is not counted
-                err = 0.0
-                for i in range(hi):
-                    eu = 0.0
-                    er = 0.0
-                    for j in range(s):
-                        eu += (b[j] - bhat[j]) * ku[j, i]
-                        er += (b[j] - bhat[j]) * kr[j, i]
-                    eu = abs(dt * eu) / (atol_u + rtol * abs(u[i]))
-                    if vac_thr > 0.0 and rho[i] < vac_thr:
-                        eu = 0.0
-                    er = abs(dt * er) / (atol_r + rtol * abs(rho[i]))
-                    if eu > err:
-                        err = eu
-                    if er > err:
-                        err = er
+                err = error_norm(u, rho, dt, b, bhat, ku, kr, hi, atol_u, atol_r, rtol, vac_thr)
                 fac = 0.9 * err ** (-1.0 / err_order) if err > 0.0 else 5.0
                 if err > 1.0:
                     counters[0] += 1
@@ -521,99 +658,24 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
                     continue
                 dt_prop = dt * min(5.0, fac)
             if strain_limit > 0.0:
-                # gradient-catastrophe monitor on the start-of-step velocity (ghosts of stage 0
-                # are overwritten; recompute with one-sided ends)
-                worst = 0.0
-                for i in range(1, min(N - 1, tail + 1)):     # 0 on the uniform tail
-                    comp = -(u[i + 1] - u[i - 1]) / (2.0 * dx) * dt
-                    if comp > worst:
-                        worst = comp
-                        where = i
+                worst, w_at = compression_monitor(u, dt, dx, tail)
+                if w_at >= 0:
+                    where = w_at
                 if worst > strain_limit:
                     status = 6
                     break
-            for j in range(s):
-                bj = b[j]
-                if bj != 0.0:
-                    for i in range(hi):
-                        u[i] += dt * bj * ku[j, i]
-                        rho[i] += dt * bj * kr[j, i]
-            if tracer_mode == 1:
-                for n in range(nt):
-                    tracers[n] += dt * vt[0, n]
-            elif tracer_mode == 2:
-                for n in range(nt):
-                    for j in range(s):
-                        tracers[n] += dt * b[j] * vt[j, n]
-            if nt > 0 and (bcl == 1 or bcl == 4):
-                for n in range(nt):
-                    if tracers[n] < xlo:  # floor
-                        tracers[n] = xlo
+            combine(u, rho, dt, b, ku, kr, hi, tracers, tracer_mode, vt, floor_tracers, xlo)
             t = t_end if last else t + dt
-            # Post-step passes.  With the vacuum skip they run on the cells below n_act = hi + 2
-            # only: above, ρ = 0 and (after the extension) u is the top material cell's velocity
-            # c, so the extension, the moving average (of c, c, c) and the floor would give every
-            # cell there the same value, which is written directly (bit for bit the same; tested).
-            n_act = N
-            if can_skip and (filt or not (sel_tau > 0.0 and sel2 <= 0.0)):
-                n_act = min(N, hi + 2)
-            if positivity:
-                make_positive(rho[:n_act])      # ρ = 0 above: neither negative nor a donor
-            top_u = 0.0
+            n_act, mat = post_step(u, rho, t, hi, can_skip, filt, positivity, vac_thr, sel_tau, sel2, rho_floor,
+                                   up, rp, G, bcl, bch, xlo, dx, bp, wsp)
             if vac_thr > 0.0:
-                top = extend_velocity(u[:n_act], rho[:n_act], vac_thr)
-                material = top >= 0
-                if n_act < N:
-                    if top < 0:
-                        n_act = N               # no material: the whole grid as before
-                    else:
-                        top_u = u[top]
-                        u[n_act] = top_u        # read by the moving average of cell n_act - 1
-            if filt:
-                fill_ghosts_below(u, rho, t, up, rp, G, bcl, bch, xlo, dx, bp, n_act + 1)
-                moving_average(u[:n_act], rho[:n_act], up, rp, G, bcl)
-                if n_act < N:
-                    top_u = 0.25 * (top_u + 2.0 * top_u + top_u)
-            elif sel_tau > 0.0 and sel2 <= 0.0:
-                fill_ghosts(u, rho, t, up, rp, G, bcl, bch, xlo, dx, bp)
-                umax = 0.0
-                rmax = 0.0
-                for i in range(N):
-                    if abs(u[i]) > umax:
-                        umax = abs(u[i])
-                    if rho[i] > rmax:
-                        rmax = rho[i]
-                selective_average(u, rho, up, rp, G, bcl, sel_tau, umax + math.sqrt(kappa * rmax))
-            if rho_floor > 0.0:
-                # vacuum debris: |ρ| below the floor is set to 0 at the end of every step (above
-                # hi + 1 ρ is exactly 0 already: the stages leave it, the moving average spreads
-                # by one cell)
-                for i in range(min(N, hi + 2)):
-                    r = rho[i]
-                    rho[i] = 0.0 if abs(r) < rho_floor else r
-            if n_act < N:
-                u[n_act:] = top_u
+                material = mat
             tail = n_act
             steps += 1
-            for i in range(n_act):              # the tail is finite and ρ = 0 there
-                if not (math.isfinite(u[i]) and math.isfinite(rho[i])):
-                    status = 1
-                    where = i
-                    break
-                if rho_max > 0.0 and rho[i] > rho_max:
-                    status = 2
-                    where = i
-                    break
+            status, w_at = check_state(u, rho, n_act, rho_max, top_tol, bch, W)
             if status != 0:
+                where = w_at
                 break
-            if top_tol > 0.0 and bch == 2:
-                for i in range(max(0, N - 1 - W), N):
-                    if rho[i] > top_tol:
-                        status = 5
-                        where = i
-                        break
-                if status != 0:
-                    break
             if steps >= max_steps and t < t_end:
                 status = 4
                 break
@@ -632,5 +694,11 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn):
     core.make_positive = make_positive
     core.selective_average = selective_average
     core.sensor_on = sensor_on
+    core.stages = stages
+    core.error_norm = error_norm
+    core.compression_monitor = compression_monitor
+    core.combine = combine
+    core.post_step = post_step
+    core.check_state = check_state
     core.advance = advance
     return core

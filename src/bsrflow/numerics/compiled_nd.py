@@ -375,8 +375,11 @@ def _cell_parts(kernel_fn):
 
 
 @functools.lru_cache(maxsize=32)
-def make_core_nd(kernel_fn, motion_fn, positivity=False, tracers=False):
-    """Build the compiled n-D functions for one (kernel, motion) pair of numba functions.
+def make_core_nd(kernel_fn, motion_fn, wave_speed_fn, positivity=False, tracers=False):
+    """Build the compiled n-D functions for one (kernel, motion) pair of numba functions and
+    the interaction's wave-speed bound ``wave_speed_fn(rho_max, p) -> c`` [m/s]
+    (:meth:`bsrflow.physics.interaction.Interaction.compiled_wave_speed`; the step loop's CFL
+    bound is ``max Σ|u_a| + wave_speed_fn(max ρ, wsp)``).
 
     Returns a namespace with ``fill_ghosts``, ``rhs``, ``moving_average``,
     ``extend_velocity`` and ``advance``.  Everything else (tableau, boundary maps, quadrature
@@ -387,13 +390,14 @@ def make_core_nd(kernel_fn, motion_fn, positivity=False, tracers=False):
     branch alone cost the seed's 3-D step 20 % at 64³, ``bench/bench_nd.py``).
     """
     parts = _cell_parts(kernel_fn)
+    WS = wave_speed_fn
     M = motion_fn
     POSITIVITY = bool(positivity)
     TRACERS = bool(tracers)
     rhs = parts.rhs
 
     @numba.njit(cache=False)
-    def advance(u, rho, t, t_end, dt_fixed, cfl, kappa, A, b, c, filt, dims, sx, sy, sz, gx, gy, gz,
+    def advance(u, rho, t, t_end, dt_fixed, cfl, wsp, A, b, c, filt, dims, sx, sy, sz, gx, gy, gz,
                 kx, ky, kz, prz, floor, Gx, Gy, Gz, dx, dA, dB, hc, hwA, hwB, kp, grav, mp, dt_min,
                 rho_max, max_steps, top_tol, top_layers, vac_thr, tracers, tracer_mode, lo, box, periodic):
         """Advance (u, ρ) in place from t to t_end.
@@ -434,7 +438,7 @@ def make_core_nd(kernel_fn, motion_fn, positivity=False, tracers=False):
                 dt = dt_fixed
             else:
                 _row_stats(u, rho, smax, rmax, bad)
-                speed = smax.max() + math.sqrt(dims * kappa * max(rmax.max(), 0.0))
+                speed = smax.max() + WS(max(rmax.max(), 0.0), wsp)
                 dt = cfl * dx / speed if speed > 0.0 else t_end - t
             last = False
             if t + dt >= t_end - 1e-12 * max(abs(t_end), dt):

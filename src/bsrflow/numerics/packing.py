@@ -116,7 +116,7 @@ class EulerianPacking(_Base):
         rc = law.close_packing_density
         self.rho_tiny = 1e-12 * rc
         self.rho_floor = 1e-30 * rc
-        self.c_bound = law.wave_speed()
+        self.c_bound = law.wave_speed_bound(self.fields)     # the interaction's own bound
         self.counters = np.zeros(4, dtype=np.int64)
 
     @property
@@ -173,7 +173,7 @@ class LagrangianPacking(_Base):
         self.hist = np.zeros(n_pts)
         self.mu = law.particle_mass / self.ppd
         # Verlet is stable for ω_max Δt < 2 with ω_max = 2 ppd √(K2/m): Δt = cfl h / c
-        self.dt_max = self.cfl * h / law.wave_speed()
+        self.dt_max = self.cfl * h / law.wave_speed_bound()
         self.counters = np.zeros(3, dtype=np.int64)
         self.point_masses = (np.arange(n_pts) + 0.5) * self.mu
 

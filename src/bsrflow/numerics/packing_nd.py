@@ -36,6 +36,7 @@ import numba
 import numpy as np
 from numba import prange
 
+from ..physics.interaction import Interaction, constant_wave_speed
 from ..physics.packing import history_update, packing_wave_speed
 from . import packing_kernels as pk
 
@@ -45,9 +46,14 @@ RHO, MX, MY, MZ, HIST = 0, 1, 2, 3, 4
 
 
 @dataclass(frozen=True)
-class PackingLawND:
+class PackingLawND(Interaction):
     """The packing stress on an n-D grid (SI): k1 [Pa/m] loading stiffness, restitution e in
-    (0, 1] (unloading k1/e²), diameter d [m], close_packing_density ρ_c [kg/m^n]."""
+    (0, 1] (unloading k1/e²), diameter d [m], close_packing_density ρ_c [kg/m^n].  An
+    :class:`~bsrflow.physics.interaction.Interaction` reading the density and the history at both
+    points, with the constant bound of the sound speed at close packing (:meth:`wave_speed`)."""
+
+    state_fields = ("rho", "rho_delta_max")
+    radius = property(lambda self: self.diameter, doc="R = d [m], the range of the BSR form.")
 
     k1: float
     restitution: float
@@ -86,6 +92,18 @@ class PackingLawND:
     def wave_speed(self) -> float:
         """Bound on the sound speed at close packing, √(k2 m_eff)/ρ_c [m/s]."""
         return math.sqrt(self.k2 * self.m_eff) / self.close_packing_density
+
+    def wave_speed_bound(self, state=None) -> float:
+        """√(k2 m_eff)/ρ_c [m/s] for every state: no denser state has a faster wave."""
+        return self.wave_speed()
+
+    def compiled_wave_speed(self):
+        return constant_wave_speed, np.array([self.wave_speed()])
+
+    def to_dict(self) -> dict:
+        return {"name": "packing_nd", "k1": self.k1, "restitution": self.restitution, "diameter": self.diameter,
+                "close_packing_density": self.close_packing_density,
+                "units": {"k1": "Pa m-1", "diameter": "m", "close_packing_density": "kg m-n"}}
 
 
 @numba.njit(cache=True, inline="always")
@@ -347,7 +365,7 @@ class EulerianPackingND:
         rc = law.close_packing_density
         self.rho_tiny = 1e-12 * rc
         self.rho_floor = 1e-30 * rc
-        self.c_bound = law.wave_speed()
+        self.c_bound = law.wave_speed_bound()       # the interaction's own bound
         self.counters = np.zeros(3, dtype=np.int64)
         self.steps = 0
         self._fn = motion.fn

@@ -86,7 +86,7 @@ class ReferenceScheme:
             thr = self.sim.vacuum_density
             mat = (rho if rho_mat is None else rho_mat) >= thr if thr > 0 else np.ones(N, bool)
             umax = np.max(np.abs(u[mat])) if mat.any() else 0.0
-            speed = umax + np.sqrt(self.sim.kappa * np.max(rho))
+            speed = umax + self.sim.model.kernel.wave_speed_bound({"rho": rho})
         if k2 > 0:
             fu, fr = self._face_fluxes(up, rp, self._faces_on(up, rp, self.sim.scheme.selective_filter, speed),
                                        k2 * speed / g.dx)
@@ -151,7 +151,7 @@ class ReferenceScheme:
         """Moving average in flux form on the faces next to cells flagged by the sensors."""
         up, rp = self.pad(u, rho, t)
         tau = self.sim.scheme.selective_filter
-        speed = np.max(np.abs(u)) + np.sqrt(self.sim.kappa * np.max(rho))
+        speed = np.max(np.abs(u)) + self.sim.model.kernel.wave_speed_bound({"rho": rho})
         fu, fr = self._face_fluxes(up, rp, self._faces_on(up, rp, tau, speed), 0.25)
         return u + fu[1:] - fu[:-1], rho + fr[1:] - fr[:-1]
 

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field, asdict
 
 import numpy as np
 
+from ..physics.interaction import fast_integral_for
 from ..physics.model import BSRModel, jit_user
 from .compiled import STATUS, direct_integral, make_core
 from .limits import MAX_SNAPSHOTS, cfl_limit
@@ -336,6 +337,8 @@ class Simulation:
         self._err_order = (tb.embedded_order or tb.order) + 1
         self.counters = np.zeros(2, dtype=np.int64)
         self.kappa = model.kernel.stiffness_moment()
+        # the interaction's own wave-speed bound (for the seed's kernel √(κρ)), compiled in
+        self._wave_speed_fn, self.wave_speed_params = model.kernel.compiled_wave_speed()
         self.rho_max = float(rho_max)
         self.dt_min = float(dt_min)
         self.strain_limit = float(strain_limit)
@@ -353,12 +356,12 @@ class Simulation:
         if integral not in ("fast", "direct"):
             raise ValueError(f"integral = {integral!r} is not one of ('fast', 'direct')")
         if integral_fn is None:
-            fast = getattr(model.kernel, "fast_integral", None)
+            fast = fast_integral_for(model.kernel)
             integral_fn = fast if (integral == "fast" and fast is not None) else direct_integral(model.kernel.compiled)
         self.integral_name = getattr(integral_fn, "__name__", "custom")
         integral = integral_fn
         self.core = make_core(integral, jit_user(model.external), model.motion.fn,
-                              jit_user(model.boundary_values))
+                              jit_user(model.boundary_values), self._wave_speed_fn)
 
     # -- the pieces, exposed for tests and analysis ------------------------------------------
     def advance(self, u, rho, t, t_end, tracers=None, max_steps=None):
@@ -371,7 +374,7 @@ class Simulation:
         mode = 0 if tracers is None or len(tracers) == 0 else (1 if s.tracer_integrator == "euler" else 2)
         tb = self.tableau
         return self.core.advance(
-            u, rho, float(t), float(t_end), float(s.dt or 0.0), float(s.cfl), float(self.kappa),
+            u, rho, float(t), float(t_end), float(s.dt or 0.0), float(s.cfl), self.wave_speed_params,
             tb.a, tb.b, tb.c, bool(s.filter), bcl, bch, float(g.lower), float(g.dx), self.W, self.qz,
             self.qw, self.model.kernel.params, float(self.model.gravity), self.model.external_params,
             self.model.motion.params, self.model.boundary_params, self.dt_min, self.rho_max,
@@ -394,7 +397,7 @@ class Simulation:
                               up, rp, G, bcl, bch, float(g.lower), float(g.dx), self.model.boundary_params)
         self.core.rhs(float(t), up, rp, G, N, float(g.lower), float(g.dx), self.W, self.qz, self.qw,
                       self.model.kernel.params, float(self.model.gravity), self.model.external_params,
-                      self.model.motion.params, du, dr, bcl, float(self.scheme.hyperdiffusion), float(self.kappa),
+                      self.model.motion.params, du, dr, bcl, float(self.scheme.hyperdiffusion), self.wave_speed_params,
                       np.ascontiguousarray(rho, float), float(self.vacuum_density),
                       float(self.scheme.sensor_dissipation), float(self.scheme.selective_filter))
         return du, dr

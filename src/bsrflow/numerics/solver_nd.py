@@ -215,13 +215,17 @@ class SimulationND:
         self.dB = np.ascontiguousarray((-self.ho[:, 0] * PY - self.ho[:, 1]) * PZ + self.ho[:, 2])
         self.tableau = get_stepper(self.scheme.stepper)
         self.kappa = self.stiffness_moment()
+        # the interaction's wave-speed bound, with this scheme's discrete moment: c = √(n κ ρ)
+        self._wave_speed_fn = model.kernel.compiled_wave_speed()[0]
+        self.wave_speed_params = np.array([float(grid.dim) * self.kappa])
         self.rho_max = float(rho_max)
         self.dt_min = float(dt_min)
         self.top_tolerance = float(top_tolerance)
         self.max_steps = int(max_steps)
         self.vacuum_density = float(vacuum_density)
         self.floor = grid.bc_lower == "floor"
-        self.core = make_core_nd(model.kernel.compiled, model.motion.fn, positivity=bool(self.scheme.positivity))
+        self.core = make_core_nd(model.kernel.compiled, model.motion.fn, self._wave_speed_fn,
+                                 positivity=bool(self.scheme.positivity))
         self._core_tracers = None           # the step loop with tracer moves, compiled when first needed
 
     def _three(self, a):
@@ -269,10 +273,10 @@ class SimulationND:
         if tracers is not None:
             if self._core_tracers is None:
                 self._core_tracers = make_core_nd(self.model.kernel.compiled, self.model.motion.fn,
-                                                  positivity=bool(s.positivity), tracers=True)
+                                                  self._wave_speed_fn, positivity=bool(s.positivity), tracers=True)
             core = self._core_tracers
         return core.advance(
-            ui, ri, float(t), float(t_end), float(s.dt or 0.0), float(s.cfl), float(self.kappa),
+            ui, ri, float(t), float(t_end), float(s.dt or 0.0), float(s.cfl), self.wave_speed_params,
             tb.a, tb.b, tb.c, self._filter_code(), g.dim, sx, sy, sz, gx, gy, gz, kx, ky, kz, prz,
             self.floor, Gx, Gy, Gz, g.dx, self.dA, self.dB, self.hc, self.hw, self.hwB, self.model.kernel.params,
             self.model.gravity, self.model.motion.params, self.dt_min, self.rho_max,

@@ -29,10 +29,13 @@ quadrature treats the node z = 0 as carrying no net contribution for odd kernels
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numba
 import numpy as np
+
+from .interaction import Interaction, linear_wave_speed, register_fast_integral
 
 __all__ = ["Kernel", "walton_braun", "walton_braun_from_contact", "zero_kernel",
            "dissipation_from_restitution", "restitution_from_dissipation"]
@@ -48,8 +51,11 @@ def _zero(z, u_here, u_there, p):
 
 
 @dataclass
-class Kernel:
-    """An interaction kernel Θ(z, u_here, u_there; p) with support |z| <= radius.
+class Kernel(Interaction):
+    """An interaction kernel Θ(z, u_here, u_there; p) with support |z| <= radius: an
+    :class:`~bsrflow.physics.interaction.Interaction` that reads the velocity at both points
+    and whose wave-speed bound is that of a kernel linear in ρ, c = √(κ max ρ)
+    (:meth:`stiffness_moment`).
 
     Parameters
     ----------
@@ -60,9 +66,13 @@ class Kernel:
     param_names, param_units : documentation of p, copied into output attributes.
     fast_integral : optional compiled whole-array integral with the signature of
         :func:`bsrflow.numerics.compiled.make_direct_integral`'s result that computes the same
-        sum with less work (e.g. :mod:`bsrflow.numerics.fast_integral` for Walton–Braun); the
-        solver uses it unless asked for the direct sum.
+        sum with less work, for this kernel object only; a fast path registered for the
+        kernel's function (:func:`bsrflow.physics.interaction.register_fast_integral`, e.g. the
+        Walton–Braun algorithm of :mod:`bsrflow.numerics.fast_integral`) is found without it.
+        The solver uses it unless asked for the direct sum.
     """
+
+    state_fields = ("u",)
 
     fn: object
     params: np.ndarray
@@ -79,6 +89,7 @@ class Kernel:
             raise ValueError(f"kernel radius = {self.radius!r} is outside the valid range [0, inf) m")
         if self.compiled is None:
             self.compiled = _compile(self.fn)
+        self._kappa = None
 
     def __call__(self, z, u_here, u_there):
         """Evaluate Θ with NumPy (arrays broadcast)."""
@@ -90,16 +101,32 @@ class Kernel:
 
         For a uniform state of density ρ the linearised model has sound speed c² = κ ρ
         (Appendix A, corrected; see :mod:`bsrflow.analysis.wavespeed`).  The solver uses
-        c = sqrt(κ max ρ) in its CFL bound.
+        c = sqrt(κ max ρ) in its CFL bound (:meth:`wave_speed_bound`).  Computed once per
+        kernel object (its parameters are fixed for its lifetime).
         """
+        key = (self.radius, self.params.tobytes())
+        if self._kappa is not None and self._kappa[0] == key:
+            return self._kappa[1]
         if self.radius == 0:
-            return 0.0
-        z = np.linspace(-self.radius, self.radius, 4001)
-        vals = []
-        for du in (0.0, 1.0, -1.0):
-            f = z * self(z, np.zeros_like(z), du * np.ones_like(z))
-            vals.append(abs(np.trapezoid(f, z)))
-        return float(max(vals))
+            kappa = 0.0
+        else:
+            z = np.linspace(-self.radius, self.radius, 4001)
+            vals = []
+            for du in (0.0, 1.0, -1.0):
+                f = z * self(z, np.zeros_like(z), du * np.ones_like(z))
+                vals.append(abs(np.trapezoid(f, z)))
+            kappa = float(max(vals))
+        self._kappa = (key, kappa)
+        return kappa
+
+    def wave_speed_bound(self, state) -> float:
+        """c = √(κ max ρ) [m/s] for the state's density ``state["rho"]`` [kg/m]."""
+        from .interaction import _max_density
+        return math.sqrt(self.stiffness_moment() * _max_density(state))
+
+    def compiled_wave_speed(self):
+        """(:func:`~bsrflow.physics.interaction.linear_wave_speed`, [κ])."""
+        return linear_wave_speed, np.array([self.stiffness_moment()])
 
     def to_dict(self) -> dict:
         return {"name": self.name, "radius": self.radius, "params": self.params.tolist(),
@@ -135,6 +162,16 @@ def restitution_from_dissipation(eps: float) -> float:
     return float(np.sqrt((1.0 - eps) / (1.0 + eps)))
 
 
+def _register_fast_paths():
+    # the Walton–Braun kernel's O(1)-per-cell integral (numerics.fast_integral imports nothing of
+    # bsrflow, so this is no import cycle)
+    from ..numerics.fast_integral import walton_braun_integral
+    register_fast_integral(_walton_braun, walton_braun_integral)
+
+
+_register_fast_paths()
+
+
 def walton_braun(strength: float, dissipation: float, radius: float, seed_sign: bool = False) -> Kernel:
     """Bilinear Walton-Braun-type kernel of (4.6) in a repulsive, dissipative convention.
 
@@ -159,12 +196,10 @@ def walton_braun(strength: float, dissipation: float, radius: float, seed_sign: 
             raise ValueError(f"{name} = {v!r} is outside the valid range (0, inf)")
     if not (0.0 <= dissipation < 1.0):
         raise ValueError(f"dissipation = {dissipation!r} is outside the valid range [0, 1)")
-    from ..numerics.fast_integral import walton_braun_integral
-
     return Kernel(_walton_braun, [strength, dissipation, radius, 1.0 if seed_sign else -1.0], radius,
                   name="walton_braun" + ("_seed_sign" if seed_sign else ""),
                   param_names=("strength", "dissipation", "radius", "orientation"),
-                  param_units=("kg-1 s-2", "1", "m", "1"), fast_integral=walton_braun_integral)
+                  param_units=("kg-1 s-2", "1", "m", "1"))
 
 
 def walton_braun_from_contact(stiffness: float, particle_mass: float, m0: float, dissipation: float,

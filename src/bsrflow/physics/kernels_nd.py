@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
+from .interaction import Interaction, linear_wave_speed
 from .motion import AppliedMotion, Rest
 
 __all__ = ["KernelND", "walton_braun_nd", "BSRModelND"]
@@ -61,8 +62,12 @@ def _compile(fn):
 
 
 @dataclass
-class KernelND:
-    """A vector interaction kernel Θ(z, u_here, u_there; p) with support |z| <= radius.
+class KernelND(Interaction):
+    """A vector interaction kernel Θ(z, u_here, u_there; p) with support |z| <= radius: an
+    :class:`~bsrflow.physics.interaction.Interaction` that reads the velocity at both points, with
+    the wave-speed bound of a kernel linear in ρ, c = √(n M max ρ) (:meth:`stiffness_moment`; the
+    factor n is the central-difference scheme's, see :mod:`bsrflow.numerics.solver_nd`, which uses
+    its own discrete M in place of the continuum's).
 
     Parameters
     ----------
@@ -80,12 +85,43 @@ class KernelND:
     param_units: tuple = ()
     compiled: object = field(default=None, repr=False)
 
+    state_fields = ("u",)
+
     def __post_init__(self):
         self.params = np.ascontiguousarray(np.atleast_1d(np.asarray(self.params, dtype=np.float64)))
         if not (np.isfinite(self.radius) and self.radius > 0):
             raise ValueError(f"kernel radius = {self.radius!r} is outside the valid range (0, inf) m")
         if self.compiled is None:
             self.compiled = _compile(self.fn)
+
+    def stiffness_moment(self, dim: int, cells: int = 24) -> float:
+        """M = max over relative vertical motions b of |∫_B z_z Θ_z(z, 0, b) dz| [m^(n+2) s⁻² kg⁻¹]
+        (b = 0, ±e_z m/s) in ``dim`` = 2 or 3 dimensions, by the ball quadrature with ``cells``
+        cells per radius (for Walton–Braun πλR⁵/15 in 3-D, πλR⁴/12 in 2-D to 0.2 %)."""
+        from ..numerics.grid_nd import ball_quadrature
+        o, c, w = ball_quadrature(dim, cells, self.radius / cells)
+        c3 = np.zeros((c.shape[0], 3))
+        c3[:, 0] = c[:, 0]
+        c3[:, 2] = c[:, -1]
+        if dim == 3:
+            c3[:, 1] = c[:, 1]
+        zero = np.zeros(c.shape[0])
+        vals = []
+        for bz in (0.0, 1.0, -1.0):
+            th = self(tuple(c3.T), (zero, zero, zero), (zero, zero, zero + bz))
+            vals.append(abs(float(np.sum(w * c3[:, 2] * th[2]))))
+        return max(vals)
+
+    def wave_speed_bound(self, state) -> float:
+        """c = √(n M max ρ) [m/s]; n from the velocity field ``state["u"]`` (components first)."""
+        from .interaction import _max_density
+        dim = len(state["u"]) if "u" in state else 3
+        return float(np.sqrt(dim * self.stiffness_moment(dim) * _max_density(state)))
+
+    def compiled_wave_speed(self):
+        """(:func:`~bsrflow.physics.interaction.linear_wave_speed`, [3 M₃]) (the n-D solver
+        passes n times its discrete moment instead)."""
+        return linear_wave_speed, np.array([3.0 * self.stiffness_moment(3)])
 
     def __call__(self, z, a, b):
         """Evaluate Θ with NumPy; z, a, b are 3-sequences of arrays (broadcast)."""

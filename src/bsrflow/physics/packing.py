@@ -71,6 +71,8 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from .interaction import Interaction, constant_wave_speed
+
 __all__ = ["PackingLaw", "packing_force", "packing_wave_speed", "history_update",
            "packing_force_numpy", "single_contact_restitution"]
 
@@ -104,8 +106,11 @@ def packing_force_numpy(delta, dmax, k1, k2):
 
 
 @dataclass(frozen=True)
-class PackingLaw:
-    """The packing interaction's constants (SI units).
+class PackingLaw(Interaction):
+    """The packing interaction's constants (SI units): an
+    :class:`~bsrflow.physics.interaction.Interaction` whose kernel reads the density and the
+    history field at both points (module docstring) and whose wave-speed bound is the sound speed
+    at close packing, d √(K2/m), which no state exceeds (c(ρ) = √(K2 m)/ρ above ρ_c, 0 below).
 
     stiffness K [N/m] (the DEM's loading stiffness K1), restitution e in (0, 1] (K2 = K/e²),
     diameter d [m], density ρ_s [kg/m³] of the sphere material.  ``stiffness_factor`` in (0, 1]
@@ -147,9 +152,25 @@ class PackingLaw:
         """m/d [kg/m]: the line density of touching spheres."""
         return self.particle_mass / self.diameter
 
+    state_fields = ("rho", "rho_delta_max")
+    radius = property(lambda self: self.diameter, doc="R = d [m], the range of the BSR form (module docstring).")
+
     def wave_speed(self) -> float:
         """Sound speed bound at close packing, d √(K2/m) [m/s]."""
         return self.diameter * math.sqrt(self.k2 / self.particle_mass)
+
+    def wave_speed_bound(self, state=None) -> float:
+        """d √(K2/m) [m/s] for every state (class docstring)."""
+        return self.wave_speed()
+
+    def compiled_wave_speed(self):
+        """(:func:`~bsrflow.physics.interaction.constant_wave_speed`, [d √(K2/m)])."""
+        return constant_wave_speed, np.array([self.wave_speed()])
+
+    def to_dict(self) -> dict:
+        return {"name": "packing", "stiffness": self.stiffness, "restitution": self.restitution,
+                "diameter": self.diameter, "density": self.density, "stiffness_factor": self.stiffness_factor,
+                "units": {"stiffness": "N m-1", "diameter": "m", "density": "kg m-3"}}
 
     def contact_time(self) -> float:
         """Duration of a two-sphere contact on the K1/K2 path, π/2 (√(μ/K1) + √(μ/K2)) with
