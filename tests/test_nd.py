@@ -373,10 +373,30 @@ def test_tracers_of_a_horizontally_uniform_state_follow_the_1d_tracers(integrato
     assert np.max(np.abs(res.tracers[:, :, 2] - r1.tracers)) <= 1e-12 * moved
 
 
-def test_tracers_are_checked_and_not_mixed_with_checkpoint_events():
+def test_tracers_are_checked_and_restart_bit_for_bit_from_a_checkpoint_event():
     sim = SimulationND(_model(), GridND((8, 8), DX))
     u0, rho = np.zeros((2, 8, 8)), np.full((8, 8), 500.0)
     with pytest.raises(ValueError, match=r"tracers must be a finite array of shape \(n, 2\)"):
         sim.run(u0, rho, 0.01, tracers=np.zeros((3, 3)))
-    with pytest.raises(ValueError, match="checkpoint events"):
-        sim.run(u0, rho, 0.01, tracers=np.zeros((1, 2)), on_event=lambda *a: None, extra_event_times=[0.005])
+    with pytest.raises(ValueError, match=r"tracers\[1\] .* outside the domain"):
+        sim.run(u0, rho, 0.01, tracers=[[DX, DX], [DX, 9 * DX]])
+    # a tapped layer with tracers: the state handed to the checkpoint event (tracers included),
+    # restarted, continues bit for bit, as in 1-D
+    setup = TappedLayer(dim=2, t_end=0.09, settle_time=0.01, save_every=0.01)
+    grid = setup.grid()
+    sim = SimulationND(setup.model(), grid, Scheme.preset("seed", positivity=True))
+    u0, rho0 = setup.initial_state(grid)
+    tr0 = np.column_stack([np.full(3, 0.5 * grid.upper[0]), np.array([0.2, 0.5, 0.8]) * setup.layer_height])
+    saves = np.round(np.arange(0.0, setup.t_end + 1e-12, setup.save_every), 12)
+    kept, seen = {}, []
+    t_ck = 0.047
+    full = sim.run(u0, rho0, setup.t_end, save_times=saves, extra_event_times=[t_ck], tracers=tr0,
+                   observers=[lambda t, u, r, tr: seen.append(tr.copy())],
+                   on_event=lambda t, u, r, tr, steps: kept.update(t=t, u=u.copy(), rho=r.copy(), tr=tr.copy()))
+    assert kept["t"] == t_ck and kept["tr"].shape == (3, 2)
+    np.testing.assert_array_equal(np.array(seen), full.tracers)
+    assert np.max(np.abs(full.tracers[-1, :, 1] - tr0[:, 1])) > 0.05 * DX      # they moved
+    rest = sim.run(kept["u"], kept["rho"], setup.t_end, t_start=t_ck, save_times=saves[saves >= t_ck],
+                   restart=True, tracers=kept["tr"])
+    np.testing.assert_array_equal(rest.tracers, full.tracers[full.t >= t_ck])
+    np.testing.assert_array_equal(rest.rho, full.rho[full.t >= t_ck])

@@ -101,7 +101,8 @@ def test_nd_restart_from_a_checkpoint_event_is_bit_for_bit():
     kept = {}
     t_ck = 0.063
 
-    def grab(t, u, rho, steps):
+    def grab(t, u, rho, tracers, steps):
+        assert tracers is None                   # a run without tracers
         kept.update(t=t, u=u.copy(), rho=rho.copy(), steps=steps)
 
     # the run with the checkpoint event (a step ends there) is the reference, as in 1-D

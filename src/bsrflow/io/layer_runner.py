@@ -10,6 +10,12 @@ netCDF file (:class:`bsrflow.io.netcdf.NetCDFWriterND`), optionally VTK files fo
     [output]
     vtk = true                   # <out stem>_vtk/layer_*.vtu and layer.pvd
     checkpoint_every = 0.05      # [s], on snapshot times; 0: none; default about every 0.1 s
+    [tracers]
+    positions = [[0.01, 0.005], [0.01, 0.015]]   # initial positions [m] (floor frame, x (y) z)
+
+Tracers (optional) are moved with the interpolated velocity by the scheme's tracer integrator
+(:meth:`bsrflow.numerics.solver_nd.SimulationND.run`) and written as ``tracer_x`` (``tracer_y``),
+``tracer_z`` (lab frame) to the netCDF file; checkpoints carry them.
 
 Every key is checked before the run: an unknown table or key, or a value outside its range,
 is one line ``layer.<key>: <problem>`` (exit code 2).  A checkpoint ``<out>.ckpt`` holds the
@@ -53,6 +59,7 @@ class LayerConfig:
     vtk: bool
     checkpoint_every: float | None
     text: str
+    tracers: np.ndarray | None = None
 
 
 def load_layer_config(path) -> LayerConfig:
@@ -63,8 +70,8 @@ def load_layer_config(path) -> LayerConfig:
         raw = fh.read()
     data = tomllib.loads(raw.decode("utf-8"))
     for table in data:
-        if table not in ("layer", "output"):
-            raise ConfigError(str(table), "unknown table in a layer config; valid: [layer], [output]")
+        if table not in ("layer", "output", "tracers"):
+            raise ConfigError(str(table), "unknown table in a layer config; valid: [layer], [output], [tracers]")
     layer = dict(data["layer"])
     kind = layer.pop("kind", "tapped_layer")
     if kind not in KINDS:
@@ -93,7 +100,36 @@ def load_layer_config(path) -> LayerConfig:
     if ck is not None:
         if isinstance(ck, bool) or not isinstance(ck, (int, float)) or not (math.isfinite(ck) and ck >= 0.0):
             raise ConfigError("output.checkpoint_every", f"{ck!r} is outside the valid range [0, inf) s")
-    return LayerConfig(setup, vtk, None if ck is None else float(ck), raw.decode("utf-8"))
+    return LayerConfig(setup, vtk, None if ck is None else float(ck), raw.decode("utf-8"),
+                       _tracer_positions(data.get("tracers"), setup))
+
+
+def _tracer_positions(table, setup):
+    """The ``[tracers]`` table's ``positions``: an (n, dim) array [m] inside the layer's box, or None."""
+    if table is None:
+        return None
+    for key in table:
+        if key != "positions":
+            raise ConfigError(f"tracers.{key}", "unknown key; valid: positions")
+    if "positions" not in table:
+        raise ConfigError("tracers.positions", "missing: a list of [x, z] (2-D) or [x, y, z] (3-D) positions [m]")
+    pos = table["positions"]
+    dim = setup.dim
+    ok = (isinstance(pos, list) and len(pos) > 0
+          and all(isinstance(p, list) and len(p) == dim
+                  and all(isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c) for c in p)
+                  for p in pos))
+    if not ok:
+        raise ConfigError("tracers.positions", f"must be a non-empty list of {dim}-element lists of finite "
+                          f"numbers [m] ({'[x, z]' if dim == 2 else '[x, y, z]'} per tracer)")
+    arr = np.array(pos, dtype=float)
+    grid = setup.grid()
+    lo, hi = np.asarray(grid.lower, float), np.asarray(grid.upper, float)
+    for k, p in enumerate(arr):
+        if np.any(p < lo) or np.any(p > hi):
+            raise ConfigError("tracers.positions", f"tracer {k} at {p.tolist()} m is outside the box "
+                              f"[{lo.tolist()}, {hi.tolist()}] m")
+    return arr
 
 
 @dataclass
@@ -146,6 +182,8 @@ def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=
     t0, steps0, resumed, wall0 = 0.0, 0, None, 0.0
     u0, rho0 = setup.initial_state(grid)
     attrs = {"config": cfg.text, "scheme": scheme.name, "dimension": grid.dim}
+    tracers = None if cfg.tracers is None else np.array(cfg.tracers, dtype=float)
+    n_tr = 0 if tracers is None else tracers.shape[0]
     if resume:
         if not os.path.exists(ck_file):
             raise ConfigError("--resume", f"no checkpoint {ck_file}; run without --resume")
@@ -154,12 +192,17 @@ def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=
             raise ConfigError("--resume", f"{ck_file} was written by another config; run without --resume")
         t0, steps0, resumed, wall0 = float(ck.t), int(ck.steps), float(ck.t), float(ck.wall_time)
         u0, rho0 = ck.u, ck.rho
-        writer = NetCDFWriterND.resume(out, t0, grid, floor, expected_snapshots=save_times.size)
+        if tracers is not None:
+            if ck.tracers.shape != tracers.shape:
+                raise ConfigError("--resume", f"{ck_file} holds {ck.tracers.shape[0]} tracers, the config "
+                                  f"{tracers.shape[0]}; run without --resume")
+            tracers = ck.tracers
+        writer = NetCDFWriterND.resume(out, t0, grid, floor, expected_snapshots=save_times.size, n_tracers=n_tr)
         save_times = save_times[save_times >= t0]
     else:
         if os.path.exists(ck_file):
             os.remove(ck_file)                        # stale: belongs to an earlier run
-        writer = NetCDFWriterND(out, grid, floor, attrs, expected_snapshots=save_times.size)
+        writer = NetCDFWriterND(out, grid, floor, attrs, expected_snapshots=save_times.size, n_tracers=n_tr)
     observers = [writer]
     vtk_writer = None
     if vtk_stem:
@@ -170,16 +213,16 @@ def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=
         observers.append(vtk_writer)
     last = {"t": None}
 
-    def on_checkpoint(t, u, rho, steps):
-        write_checkpoint(ck_file, Checkpoint(t, u, rho, np.zeros(0), steps0 + steps, 0, wall0 + time.perf_counter() - wall,
-                                             writer.n, cfg.text))
+    def on_checkpoint(t, u, rho, tr, steps):
+        write_checkpoint(ck_file, Checkpoint(t, u, rho, np.zeros((0, grid.dim)) if tr is None else tr,
+                                             steps0 + steps, 0, wall0 + time.perf_counter() - wall, writer.n, cfg.text))
         last["t"] = t
 
     wall = time.perf_counter()
     try:
         res = sim.run(u0, rho0, setup.t_end, t_start=t0, save_times=save_times, observers=observers,
                       progress=progress, extra_event_times=ck_times[ck_times > t0], on_event=on_checkpoint,
-                      restart=resume)
+                      restart=resume, tracers=tracers)
     except SimulationError as exc:
         writer.close(f"stopped: {exc}")
         raise

@@ -293,9 +293,12 @@ class NetCDFWriter:
         self._ds = {k: self._h5[k] for k in self._time_vars}
 
 
-def schema_nd(dim: int) -> dict:
+def schema_nd(dim: int, n_tracers: int = 0) -> dict:
     """Variables of an n-D run's file (:class:`NetCDFWriterND`), dim = 2 (axes x, z) or 3
-    (x, y, z; z vertical, from the floor): name -> (dims, units, long_name)."""
+    (x, y, z; z vertical, from the floor): name -> (dims, units, long_name).  With tracers
+    (``n_tracers`` > 0) also ``tracer`` (the index) and ``tracer_x`` (, ``tracer_y``),
+    ``tracer_z`` (time, tracer) [m]: their positions, the height in the lab frame as the 1-D
+    file's ``tracer_height``."""
     axes = ("x", "z") if dim == 2 else ("x", "y", "z")
     per = "m-1" if dim == 2 else ""            # 2-D: per unit depth
     out = {"time": (("time",), "s", "simulated time")}
@@ -306,6 +309,11 @@ def schema_nd(dim: int) -> dict:
                   else "density (mass per unit area)")
     for a in axes:
         out[f"u_{a}"] = (("time",) + axes, "m s-1", f"velocity component {a} relative to the floor")
+    if n_tracers > 0:
+        out["tracer"] = (("tracer",), "1", "tracer index")
+        for a in axes:
+            out[f"tracer_{a}"] = (("time", "tracer"), "m", "tracer height (lab frame)" if a == "z"
+                                  else f"tracer position {a}")
     out["floor"] = (("time",), "m", "floor position (lab frame)")
     out["mass_centre"] = (("time",), "m", "height of the mass centre (lab frame)")
     out["mass"] = (("time",), ("kg " + per).strip(), "total mass" + (" per unit depth" if per else ""))
@@ -317,13 +325,15 @@ def schema_nd(dim: int) -> dict:
 class NetCDFWriterND(NetCDFWriter):
     """The n-D run's writer: the crash-safe snapshot-by-snapshot file of :class:`NetCDFWriter`
     (the same creation, append, flush and close; the module docstring) with the variables of
-    :func:`schema_nd`.  An observer ``obs(t, u, rho)`` of :meth:`SimulationND.run` (u of shape
-    (n, *shape) [m/s], rho (*shape) [kg/m^n], user layout).
+    :func:`schema_nd`.  An observer ``obs(t, u, rho, tracers)`` of :meth:`SimulationND.run` (u
+    of shape (n, *shape) [m/s], rho (*shape) [kg/m^n], tracers (n_tracers, n) [m] floor frame or
+    None; user layout).
 
     grid : :class:`bsrflow.numerics.grid_nd.GridND`; floor : ``floor(t) -> ϑ(t)`` [m];
-    attrs, expected_snapshots : as for :class:`NetCDFWriter`."""
+    attrs, expected_snapshots : as for :class:`NetCDFWriter`; n_tracers : tracers per snapshot
+    (0: the file has no tracer variables)."""
 
-    def __init__(self, path, grid, floor, attrs=None, expected_snapshots=None):
+    def __init__(self, path, grid, floor, attrs=None, expected_snapshots=None, n_tracers=0):
         self.path = os.fspath(path)
         self.grid = grid
         self.dim = int(grid.dim)
@@ -334,7 +344,12 @@ class NetCDFWriterND(NetCDFWriter):
         self.expected = max(1, int(expected_snapshots or 1))
         self.axes = ("x", "z") if self.dim == 2 else ("x", "y", "z")
         coords = {a: np.asarray(grid.centres(k), dtype=float) for k, a in enumerate(self.axes)}
-        self._init_schema(schema_nd(self.dim), dict(zip(self.axes, grid.shape)), coords)
+        self.n_tracers = int(n_tracers)
+        sizes = dict(zip(self.axes, grid.shape))
+        if self.n_tracers > 0:
+            coords["tracer"] = np.arange(self.n_tracers, dtype=np.int32)
+            sizes["tracer"] = self.n_tracers
+        self._init_schema(schema_nd(self.dim, self.n_tracers), sizes, coords)
         self.attrs["time_variables"] = " ".join(self._time_vars)
         self.cell_volume = float(grid.cell_volume)
         self.height = coords["z"] - grid.lower[-1]          # above the grid's floor
@@ -344,24 +359,31 @@ class NetCDFWriterND(NetCDFWriter):
         self.closed = False
 
     @classmethod
-    def resume(cls, path, keep_before, grid, floor, expected_snapshots=None):
+    def resume(cls, path, keep_before, grid, floor, expected_snapshots=None, n_tracers=0):
         """Reopen a partial n-D file, keep its snapshots with time < ``keep_before`` [s] (the
-        grid must match) and return a writer that appends after them."""
+        grid and the number of tracers must match) and return a writer that appends after them."""
         data, attrs = read_snapshots(path)
-        w = cls(path, grid, floor, expected_snapshots=expected_snapshots)
+        w = cls(path, grid, floor, expected_snapshots=expected_snapshots, n_tracers=n_tracers)
+        if ("tracer_z" in data) != (w.n_tracers > 0) or ("tracer" in data and data["tracer"].size != w.n_tracers):
+            raise ValueError(f"{os.fspath(path)}: its tracers differ from this run's")
         for a in w.axes:
             if a not in data or not np.array_equal(data[a], w.coords[a]):
                 raise ValueError(f"{os.fspath(path)}: its grid ({a}) differs from this run's")
         return w._keep(data, attrs, data["time"] < keep_before)
 
     def __call__(self, t, u, rho, tracers=None):
-        """Append the snapshot at t [s] and flush it to disk (``tracers``: none in n-D)."""
+        """Append the snapshot at t [s] and flush it to disk."""
         if self.closed:
             raise RuntimeError(f"{self.path}: writer is closed")
-        self._append(self._row(float(t), u, rho))
+        self._append(self._row(float(t), u, rho, tracers))
 
     def _row(self, t, u, rho, tracers=None):
         fl = float(self.floor(t))
+        if self.n_tracers > 0:
+            tr = np.asarray(tracers, dtype=float) if tracers is not None else None
+            if tr is None or tr.shape != (self.n_tracers, self.dim):
+                raise ValueError(f"{self.path}: expected tracers of shape ({self.n_tracers}, {self.dim}), got "
+                                 f"{None if tr is None else tr.shape}")
         u = np.asarray(u, dtype=float)
         rho = np.asarray(rho, dtype=float)
         mass = float(rho.sum()) * self.cell_volume
@@ -370,6 +392,9 @@ class NetCDFWriterND(NetCDFWriter):
                "kinetic_energy": 0.5 * float((rho * (u ** 2).sum(axis=0)).sum()) * self.cell_volume}
         for a, comp in zip(self.axes, u):
             row[f"u_{a}"] = comp.copy()
+        if self.n_tracers > 0:
+            for k, a in enumerate(self.axes):
+                row[f"tracer_{a}"] = tr[:, k] + (fl if a == "z" else 0.0)
         return row
 
 
@@ -383,7 +408,7 @@ def read_snapshots(path):
         listed = h.attrs.get("time_variables")       # written by NetCDFWriterND
         if listed is not None:
             time_vars = (listed.decode() if isinstance(listed, bytes) else str(listed)).split()
-            names = time_vars + [str(c) for c in ("x", "y", "z") if c in h]
+            names = time_vars + [str(c) for c in ("x", "y", "z", "tracer") if c in h]
         else:
             time_vars, names = _TIME_VARS, list(SCHEMA)
         n = min(h[k].shape[0] for k in time_vars)       # equal unless a write was cut short

@@ -334,19 +334,21 @@ class SimulationND:
 
         u0 (n, *shape) [m/s] velocity relative to the floor, rho0 (*shape) [kg/m^n].
         save_every [s] or save_times [s]: when to save (default: start and end only).
-        observers: callables ``obs(t, u, rho)`` (user layout) called at every save.
+        observers: callables ``obs(t, u, rho, tracers)`` (user layout; ``tracers`` (n, dim) [m],
+            floor frame, or None in a run without tracers) called at every save, as in 1-D.
         progress: callable ``progress(t)`` called at every save.
         extra_event_times, on_event: as for the 1-D :meth:`Simulation.run`: the time loop lands
-            on those in (t_start, t_end) exactly and calls ``on_event(t, u, rho, steps)`` (user
-            layout; ``steps`` taken so far in this call) before the velocity jump and the save
-            at t; that state, restarted with ``run(..., t_start=t, restart=True)``, continues
-            bit for bit (checkpoints).
+            on those in (t_start, t_end) exactly and calls ``on_event(t, u, rho, tracers, steps)``
+            (user layout; ``tracers`` as for the observers; ``steps`` taken so far in this call)
+            before the velocity jump and the save at t; that state, restarted with
+            ``run(..., t_start=t, restart=True, tracers=...)``, continues bit for bit
+            (checkpoints).
         restart: the initial state is one saved by an earlier run: skip the check rho0 >= 0
-            (without the positivity fix round-off level negative densities occur).
+            (without the positivity fix round-off level negative densities occur) and that the
+            tracers lie in the domain.
         tracers: (n, dim) initial positions [m] (floor frame, user axes), moved with the
             interpolated velocity by ``scheme.tracer_integrator`` ('euler' the seed's, 'rk' the
-            tableau); saved as ``ResultND.tracers`` (nt, n, dim).  Not combined with checkpoint
-            events (refused: their state would not include the tracers).
+            tableau); saved as ``ResultND.tracers`` (nt, n, dim).
         Raises :class:`bsrflow.numerics.solver.SimulationError` (``.result`` keeps the
         snapshots, ``.position`` is the cell centre (m) where the monitor fired, or None).
         """
@@ -371,9 +373,13 @@ class SimulationND:
             arr = np.array(tracers, dtype=float)
             if arr.ndim != 2 or arr.shape[1] != g.dim or not np.all(np.isfinite(arr)):
                 raise ValueError(f"tracers must be a finite array of shape (n, {g.dim}) [m]")
-            if on_event is not None:
-                raise ValueError("tracers with checkpoint events (on_event) are not supported: the event state "
-                                 "does not carry the tracers")
+            if not restart:
+                lo, hi = np.asarray(g.lower, float), np.asarray(g.upper, float)
+                out = np.any((arr < lo) | (arr > hi), axis=1)
+                if np.any(out):
+                    k = int(np.argmax(out))
+                    raise ValueError(f"tracers[{k}] = {arr[k].tolist()} is outside the domain "
+                                     f"[{lo.tolist()}, {hi.tolist()}] m")
             tri = np.zeros((arr.shape[0], 3))
             tri[:, 0], tri[:, 2] = arr[:, 0], arr[:, -1]
             if g.dim == 3:
@@ -384,16 +390,20 @@ class SimulationND:
         wall0 = _time.perf_counter()
         total = 0
 
+        def user_tracers():
+            return None if tri is None else tri[:, [0, 1, 2] if g.dim == 3 else [0, 2]].copy()
+
         def save(t):
             uu, rr = from_internal(g, ui, ri)
             ts.append(t)
             us.append(uu)
             rs.append(rr)
             fl.append(motion.state(t)[0])
-            if tri is not None:
-                trs.append(tri[:, [0, 1, 2] if g.dim == 3 else [0, 2]].copy())
+            tr_user = user_tracers()
+            if tr_user is not None:
+                trs.append(tr_user)
             for obs in observers:
-                obs(t, uu, rr)
+                obs(t, uu, rr, tr_user)
             if progress is not None:
                 progress(t)
 
@@ -423,7 +433,7 @@ class SimulationND:
 
         def event(ev):
             uu, rr = from_internal(g, ui, ri)
-            on_event(ev, uu, rr, total)
+            on_event(ev, uu, rr, user_tracers(), total)
 
         drive_events(float(t_start), float(t_end), save_times, jumps, extra_event_times, advance=advance,
                      apply_jump=apply_jump, save=save, on_event=None if on_event is None else event)
