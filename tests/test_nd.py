@@ -318,8 +318,12 @@ def test_column_positivity_fix_matches_numpy_and_keeps_each_column_mass():
 
 # ---- input validation ----------------------------------------------------------------------
 def test_bad_inputs_give_clear_errors():
-    with pytest.raises(ValueError, match="shape"):
-        GridND((4,), DX)
+    with pytest.raises(ValueError, match=r"need 1 \(z\), 2 \(x, z\) or 3"):
+        GridND((4, 4, 4, 4), DX)
+    with pytest.raises(ValueError, match="bc_horizontal"):
+        GridND((4,), DX, bc_horizontal="wall")          # a column has no horizontal axis
+    with pytest.raises(ValueError, match="as_grid1d"):
+        GridND((4, 4), DX).as_grid1d()
     with pytest.raises(ValueError, match="dx"):
         GridND((4, 4), -1.0)
     with pytest.raises(ValueError, match="bc_horizontal"):
@@ -400,3 +404,57 @@ def test_tracers_are_checked_and_restart_bit_for_bit_from_a_checkpoint_event():
                    restart=True, tracers=kept["tr"])
     np.testing.assert_array_equal(rest.tracers, full.tracers[full.t >= t_ck])
     np.testing.assert_array_equal(rest.rho, full.rho[full.t >= t_ck])
+
+
+def test_a_column_runs_through_the_same_api_as_the_1d_solver_bit_for_bit():
+    """One API for 1, 2 and 3 dimensions (issue #19): SimulationND on a 1-D GridND runs the 1-D
+    discretisation with the kernel's restriction to the line (Walton–Braun's registered one keeps
+    the fast integral) and gives the 1-D solver's results bit for bit, tracers and checkpoint
+    events included; every scheme option is available there ('accurate' too)."""
+    from bsrflow.numerics.grid import Grid1D
+    from bsrflow.numerics.solver import Simulation
+    from bsrflow.physics.kernels import walton_braun
+    from bsrflow.physics.model import BSRModel
+
+    lam, eps, R, n = 1e6, 0.105, 0.02, 200
+    dx = R / 10
+    motion = HalfSineTaps(0.01, 10.0, start=0.02)
+    grid = GridND((n,), dx, bc_lower="floor", bc_upper="vacuum")
+    z = grid.z
+    rho0 = np.where(z < 0.1, 0.4 * (1.0 - 0.5 * z / 0.1), 0.0)
+    tr0 = np.array([0.01, 0.05, 0.09])
+    for preset in ("seed", "accurate"):
+        scheme = Scheme.preset(preset)
+        kw = dict(vacuum_density=1e-6, top_tolerance=1e-3)
+        sim = SimulationND(BSRModelND(walton_braun_nd(lam, eps, R), motion, 9.81), grid, scheme, **kw)
+        assert sim._line.integral_name == "walton_braun_integral"          # the fast path
+        one = Simulation(BSRModel(kernel=walton_braun(lam, eps, R), motion=motion, gravity=9.81),
+                         Grid1D(0.0, n * dx, n, "floor", "vacuum"), scheme, **kw)
+        seen, kept = [], {}
+        res = sim.run(np.zeros((1, n)), rho0, 0.12, save_every=0.02, tracers=tr0[:, None],
+                      observers=[lambda t, u, r, tr: seen.append((u.shape, tr.shape))],
+                      extra_event_times=[0.07],
+                      on_event=lambda t, u, r, tr, st: kept.update(t=t, u=u.copy(), r=r.copy(), tr=tr.copy()))
+        ref = one.run(np.zeros(n), rho0, 0.12, save_every=0.02, tracers=tr0, extra_event_times=[0.07],
+                      on_event=lambda *a: None)
+        np.testing.assert_array_equal(res.rho, ref.rho)
+        np.testing.assert_array_equal(res.u[:, 0], ref.u)
+        np.testing.assert_array_equal(res.tracers[:, :, 0], ref.tracers)
+        assert res.steps == ref.steps and seen[0] == ((1, n), (3, 1)) and kept["tr"].shape == (3, 1)
+        assert np.ptp(res.tracers[:, 2, 0]) > dx                 # the tap moved them
+        rest = sim.run(kept["u"], kept["r"], 0.12, t_start=0.07, save_times=res.t[res.t >= 0.07],
+                       tracers=kept["tr"], restart=True)
+        np.testing.assert_array_equal(rest.rho, res.rho[res.t >= 0.07])
+    # a user kernel goes through its generic restriction (the direct sum)
+    user = KernelND(lambda z, a, b, p: _wb_like(z, a, b, p), [lam, eps, R], R, name="user")
+    sim_u = SimulationND(BSRModelND(user, motion, 9.81), grid)
+    assert sim_u._line.integral_name == "integral"
+    with pytest.raises(ValueError, match=r"u0 has shape \(2, 200\), expected \(1, 200\)"):
+        sim_u.run(np.zeros((2, n)), rho0, 0.01)
+
+
+def _wb_like(z, a, b, p):
+    r = np.sqrt(z[0] * z[0] + z[1] * z[1] + z[2] * z[2])
+    dot = z[0] * (b[0] - a[0]) + z[1] * (b[1] - a[1]) + z[2] * (b[2] - a[2])
+    s = -p[0] * (p[2] - r) / (r + (r == 0.0)) * (1.0 - p[1] * np.sign(dot))
+    return s * z[0], s * z[1], s * z[2]

@@ -112,3 +112,35 @@ def test_nd_restart_from_a_checkpoint_event_is_bit_for_bit():
                    restart=True)
     np.testing.assert_array_equal(rest.rho, full.rho[full.t >= t_ck])
     np.testing.assert_array_equal(rest.u, full.u[full.t >= t_ck])
+
+
+def test_a_columns_netcdf_file_through_the_nd_writer(tmp_path):
+    """The n-D writer takes a column (dim = 1) too: rho on (time, z) in kg m-1, u_z, tracers;
+    the VTK writer refuses it in one line."""
+    import xarray as xr
+
+    from bsrflow.io.netcdf import NetCDFWriterND
+    from bsrflow.io.vtk import VTKWriter
+    from bsrflow.numerics.grid_nd import GridND
+    from bsrflow.numerics.solver_nd import SimulationND
+    from bsrflow.physics.kernels_nd import BSRModelND, walton_braun_nd
+    from bsrflow.physics.motion import HalfSineTaps
+
+    grid = GridND((100,), 0.002)
+    sim = SimulationND(BSRModelND(walton_braun_nd(1e6, 0.1, 0.02), HalfSineTaps(0.005, 10.0, start=0.01), 9.81),
+                       grid, vacuum_density=1e-6)
+    rho0 = np.where(grid.z < 0.05, 0.3, 0.0)
+    floor = lambda t: sim.model.motion.state(t)[0]  # noqa: E731
+    path = tmp_path / "column.nc"
+    with NetCDFWriterND(path, grid, floor, expected_snapshots=6, n_tracers=2) as w:
+        res = sim.run(np.zeros((1, 100)), rho0, 0.05, save_every=0.01, observers=[w], tracers=[[0.01], [0.04]])
+        w.close("ok")
+    ds = xr.open_dataset(path)
+    assert ds["rho"].dims == ("time", "z") and ds["rho"].attrs["units"] == "kg m-1"
+    np.testing.assert_array_equal(ds["rho"].values, res.rho)
+    np.testing.assert_array_equal(ds["u_z"].values, res.u[:, 0])
+    np.testing.assert_allclose(ds["tracer_z"].values - ds["floor"].values[:, None], res.tracers[:, :, 0], rtol=1e-12)
+    np.testing.assert_allclose(ds["mass"].values, ds["mass"].values[0], rtol=1e-12)
+    ds.close()
+    with pytest.raises(ValueError, match="VTK output needs a 2-D or 3-D grid"):
+        VTKWriter(grid, tmp_path / "col")

@@ -293,20 +293,24 @@ class NetCDFWriter:
         self._ds = {k: self._h5[k] for k in self._time_vars}
 
 
+_AXES = {1: ("z",), 2: ("x", "z"), 3: ("x", "y", "z")}
+
+
 def schema_nd(dim: int, n_tracers: int = 0) -> dict:
-    """Variables of an n-D run's file (:class:`NetCDFWriterND`), dim = 2 (axes x, z) or 3
-    (x, y, z; z vertical, from the floor): name -> (dims, units, long_name).  With tracers
+    """Variables of an n-D run's file (:class:`NetCDFWriterND`), dim = 1 (axis z: a column),
+    2 (x, z) or 3 (x, y, z; z vertical, from the floor): name -> (dims, units, long_name).  With tracers
     (``n_tracers`` > 0) also ``tracer`` (the index) and ``tracer_x`` (, ``tracer_y``),
     ``tracer_z`` (time, tracer) [m]: their positions, the height in the lab frame as the 1-D
     file's ``tracer_height``."""
-    axes = ("x", "z") if dim == 2 else ("x", "y", "z")
+    axes = _AXES[dim]
     per = "m-1" if dim == 2 else ""            # 2-D: per unit depth
     out = {"time": (("time",), "s", "simulated time")}
     for a in axes:
         where = "height above the floor" if a == "z" else f"horizontal position ({a})"
         out[a] = ((a,), "m", f"{where} of the cell centre (floor frame)")
-    out["rho"] = (("time",) + axes, f"kg m-{dim}", "density (mass per unit volume)" if dim == 3
-                  else "density (mass per unit area)")
+    out["rho"] = (("time",) + axes, f"kg m-{dim}", {1: "line density (mass per unit length)",
+                                                   2: "density (mass per unit area)",
+                                                   3: "density (mass per unit volume)"}[dim])
     for a in axes:
         out[f"u_{a}"] = (("time",) + axes, "m s-1", f"velocity component {a} relative to the floor")
     if n_tracers > 0:
@@ -342,7 +346,7 @@ class NetCDFWriterND(NetCDFWriter):
         self.attrs.update(attrs or {})
         self.attrs["status"] = "running"
         self.expected = max(1, int(expected_snapshots or 1))
-        self.axes = ("x", "z") if self.dim == 2 else ("x", "y", "z")
+        self.axes = _AXES[self.dim]
         coords = {a: np.asarray(grid.centres(k), dtype=float) for k, a in enumerate(self.axes)}
         self.n_tracers = int(n_tracers)
         sizes = dict(zip(self.axes, grid.shape))

@@ -64,6 +64,9 @@ class VTKWriter:
 
         self.grid = grid
         self.dim = int(grid.dim)
+        if self.dim not in (2, 3):
+            raise ValueError(f"VTK output needs a 2-D or 3-D grid (grid.dim = {self.dim}); a column's fields "
+                             "are in the netCDF file")
         self.stem = Path(os.fspath(stem))
         if not self.stem.parent.is_dir():
             raise ValueError(f"VTK output {self.stem}: folder {self.stem.parent} does not exist")

@@ -87,11 +87,13 @@ _UPPER = ("vacuum", "periodic")
 
 @dataclass(frozen=True)
 class GridND:
-    """Uniform cell-centred grid in 2-D (x, z) or 3-D (x, y, z), z vertical.
+    """Uniform cell-centred grid in 1-D (z: a column), 2-D (x, z) or 3-D (x, y, z), z vertical.
 
     Parameters
     ----------
-    shape : cells per axis, (n_x, n_z) or (n_x, n_y, n_z); each >= 3.
+    shape : cells per axis, (n_z,), (n_x, n_z) or (n_x, n_y, n_z); each >= 3.  A column is run
+        by the 1-D solver's discretisation (:meth:`as_grid1d`,
+        :class:`bsrflow.numerics.solver_nd.SimulationND`).
     dx : cell side Δx [m], the same on every axis.
     lower : position of the lower corner [m] (default: the origin).
     bc_horizontal : 'periodic' or 'wall', one for all horizontal axes or one per axis.
@@ -111,8 +113,8 @@ class GridND:
             shape = tuple(int(s) if int(s) == s else s for s in np.atleast_1d(self.shape).tolist())
         except (TypeError, ValueError, OverflowError):
             raise ValueError(f"shape = {self.shape!r} is outside the valid range: integers >= 3 per axis") from None
-        if len(shape) not in (2, 3):
-            raise ValueError(f"shape = {self.shape!r}: need 2 (x, z) or 3 (x, y, z) cell counts")
+        if len(shape) not in (1, 2, 3):
+            raise ValueError(f"shape = {self.shape!r}: need 1 (z), 2 (x, z) or 3 (x, y, z) cell counts")
         for s in shape:
             if not isinstance(s, int) or s < 3:
                 raise ValueError(f"shape = {self.shape!r} is outside the valid range: integers >= 3 per axis")
@@ -126,6 +128,10 @@ class GridND:
             raise ValueError(f"lower = {self.lower!r}: need {len(shape)} finite coordinates (m)")
         object.__setattr__(self, "lower", lower)
         bh = self.bc_horizontal
+        if len(shape) == 1:            # a column: no horizontal axis (the default is accepted)
+            if not (bh == "periodic" or (not isinstance(bh, str) and len(tuple(bh)) == 0)):
+                raise ValueError(f"bc_horizontal = {bh!r}: a column (1-D grid) has no horizontal axis")
+            bh = ()
         bh = (bh,) * (len(shape) - 1) if isinstance(bh, str) else tuple(bh)
         if len(bh) != len(shape) - 1 or any(b not in _HORIZONTAL for b in bh):
             raise ValueError(f"bc_horizontal = {self.bc_horizontal!r}: need one of {_HORIZONTAL} "
@@ -169,6 +175,14 @@ class GridND:
     def mesh(self) -> tuple:
         """Cell-centre coordinate arrays, one per axis, each of ``shape`` [m]."""
         return tuple(np.meshgrid(*[self.centres(a) for a in range(self.dim)], indexing="ij"))
+
+    def as_grid1d(self):
+        """The 1-D grid of a column (dim = 1): :class:`bsrflow.numerics.grid.Grid1D` on the same
+        cells with the same boundary conditions (the 1-D solver's discretisation)."""
+        from .grid import Grid1D
+        if self.dim != 1:
+            raise ValueError(f"as_grid1d: the grid has {self.dim} dimensions, not 1")
+        return Grid1D(self.lower[0], self.upper[0], self.shape[0], self.bc_lower, self.bc_upper)
 
     # -- internal 3-axis layout (2-D runs as x, y, z with n_y = 1 and no y neighbours) ------
     @property

@@ -349,6 +349,9 @@ class EulerianPackingND:
         if not isinstance(grid, GridND) or grid.bc_lower != "floor" or grid.bc_upper != "vacuum" or \
                 any(b != "periodic" for b in grid.bc_horizontal):
             raise ValueError("grid must be a GridND with periodic sides, a floor below and a vacuum top")
+        if grid.dim == 1:
+            raise ValueError("grid: a column (dim = 1) of the packing continuum runs in bsrflow.numerics.packing "
+                             "(EulerianPacking, LagrangianPacking); EulerianPackingND needs dim = 2 or 3")
         self.dim = grid.dim
         lim = 0.5 / self.dim
         cfl = 0.4 / self.dim if cfl is None else float(cfl)

@@ -22,8 +22,10 @@ Happy path::
     sim = SimulationND(model, grid)
     res = sim.run(u0, rho0, t_end=0.1, save_every=0.01)   # u0 (3, 16, 16, 40) m/s, rho0 kg/m^3
 
-Not in the n-D solver (1-D only): tracers, user external forces, Dirichlet boundaries, the
-compression-rate monitor.
+A column, ``GridND((n_z,), dx)``, runs through the same API on the 1-D discretisation (see
+:class:`SimulationND`).  Not in the 2-D / 3-D discretisation (1-D only): user external forces,
+Dirichlet boundaries, the compression-rate monitor, the options refused by
+:func:`check_scheme_supported`.
 
 Embedding.  A state that does not vary horizontally and has no horizontal velocity stays so, and
 its vertical profile obeys a 1-D BSR system whose kernel is the n-D kernel summed over the
@@ -142,7 +144,13 @@ def check_scheme_supported(scheme: Scheme, supported, where: str):
 
 
 class SimulationND:
-    """A 2-D / 3-D BSR model on a grid with a scheme.
+    """A BSR model on a 1-D, 2-D or 3-D grid with a scheme: one API for every dimension.
+
+    On a column (``grid.dim == 1``) the 1-D discretisation runs (:class:`bsrflow.numerics.solver.
+    Simulation` on :meth:`GridND.as_grid1d`, with the kernel's restriction to the line,
+    :meth:`KernelND.on_line`, and its registered fast integral): it supports every scheme option
+    and gives the 1-D solver's results bit for bit; ``run`` takes and returns the n-D layout (u of
+    shape (1, n), tracers (n_tr, 1)).  In 2-D and 3-D the n-D discretisation below runs.
 
     Parameters
     ----------
@@ -186,8 +194,19 @@ class SimulationND:
         self.model = model
         self.grid = grid
         self.scheme = scheme or Scheme.preset("seed")
-        check_scheme_supported(self.scheme, SCHEME_OPTIONS_ND, "the n-D solver (SimulationND)")
         self.average = average
+        self._line = None
+        if grid.dim == 1:
+            # a column: the 1-D discretisation (its compiled loop, every scheme option, the
+            # registered fast integral of the kernel's restriction to the line)
+            self._line = Simulation(BSRModel(kernel=model.kernel.on_line(), motion=model.motion,
+                                             gravity=model.gravity), grid.as_grid1d(), self.scheme,
+                                    rho_max=rho_max, dt_min=dt_min, top_tolerance=top_tolerance,
+                                    max_steps=max_steps, vacuum_density=vacuum_density)
+            self.W = self._line.W
+            self.kappa = self._line.kappa
+            return
+        check_scheme_supported(self.scheme, SCHEME_OPTIONS_ND, "the n-D solver (SimulationND)")
         R = model.kernel.radius
         Wf = R / grid.dx
         W = int(round(Wf))
@@ -354,6 +373,10 @@ class SimulationND:
         """
         from .controller import drive_events
         g = self.grid
+        if self._line is not None:
+            return self._run_line(u0, rho0, t_end, t_start=t_start, save_every=save_every, save_times=save_times,
+                                  observers=observers, progress=progress, extra_event_times=extra_event_times,
+                                  on_event=on_event, restart=restart, tracers=tracers)
         u0 = np.asarray(u0, float)
         rho0 = np.asarray(rho0, float)
         for name, arr in (("u0", u0), ("rho0", rho0)):
@@ -438,6 +461,50 @@ class SimulationND:
         drive_events(float(t_start), float(t_end), save_times, jumps, extra_event_times, advance=advance,
                      apply_jump=apply_jump, save=save, on_event=None if on_event is None else event)
         return result("ok")
+
+
+    def _run_line(self, u0, rho0, t_end, *, tracers=None, observers=(), on_event=None, **kw):
+        """:meth:`run` on a column (dim = 1): the 1-D solver, in the n-D layout (u (1, n),
+        tracers (n_tr, 1)), with the same observers, events and result type."""
+        g = self.grid
+        n = g.shape[0]
+        u0 = np.asarray(u0, float)
+        if u0.shape != (1, n):
+            raise ValueError(f"u0 has shape {u0.shape}, expected (1, {n}) (one velocity component)")
+        tr = None
+        if tracers is not None:
+            arr = np.array(tracers, dtype=float)
+            if arr.ndim != 2 or arr.shape[1] != 1:
+                raise ValueError("tracers must be a finite array of shape (n, 1) [m]")
+            tr = arr[:, 0]
+        with_tracers = tr is not None
+
+        def lift(u, tracers_1d):
+            return u[None, :], (tracers_1d[:, None] if with_tracers else None)
+
+        def wrap(observer):
+            def obs(t, u, r, trc):
+                uu, tt = lift(u, trc)
+                observer(t, uu, r, tt)
+            return obs
+
+        obs = [wrap(o) for o in observers]
+        ev = None
+        if on_event is not None:
+            def ev(t, u, r, trc, steps):
+                uu, tt = lift(u, trc)
+                on_event(t, uu, r, tt, steps)
+        try:
+            res = self._line.run(u0[0], rho0, t_end, tracers=tr, observers=obs, on_event=ev, **kw)
+        except SimulationError as exc:
+            exc.result = self._result_from_line(exc.result, with_tracers) if exc.result is not None else None
+            raise
+        return self._result_from_line(res, with_tracers)
+
+    def _result_from_line(self, res, with_tracers):
+        info = dict(res.info, grid=self.grid.to_dict(), model=self.model.to_dict(), discretisation="1-D (column)")
+        return ResultND(res.t, res.u[:, None, :], res.rho, res.floor, self.grid, res.steps, res.wall_time,
+                        res.status, info, res.tracers[:, :, None] if with_tracers else None)
 
 
 # ---- plain NumPy reference -----------------------------------------------------------------

@@ -40,7 +40,7 @@ import numpy as np
 from .interaction import Interaction, linear_wave_speed
 from .motion import AppliedMotion, Rest
 
-__all__ = ["KernelND", "walton_braun_nd", "BSRModelND"]
+__all__ = ["KernelND", "walton_braun_nd", "BSRModelND", "LINE_RESTRICTIONS"]
 
 
 def _walton_braun_nd(z, a, b, p):
@@ -123,6 +123,17 @@ class KernelND(Interaction):
         passes n times its discrete moment instead)."""
         return linear_wave_speed, np.array([3.0 * self.stiffness_moment(3)])
 
+    def on_line(self):
+        """The kernel restricted to a vertical line, as the 1-D :class:`~bsrflow.physics.kernels.Kernel`
+        Θ₁(z, u, u′) = Θ_z((0, 0, z), (0, 0, u), (0, 0, u′)) [m s⁻² kg⁻¹] (the 1-D model of a
+        column, :meth:`bsrflow.numerics.grid_nd.GridND.as_grid1d`).  A registered restriction
+        (:data:`LINE_RESTRICTIONS`) gives the 1-D kernel with its fast path: Walton–Braun's is the
+        1-D Walton–Braun kernel with the same λ, ε, R (equal values, the seed's O(1) integral)."""
+        known = LINE_RESTRICTIONS.get(self.fn)
+        if known is not None:
+            return known(self)
+        return _generic_line_kernel(self)
+
     def __call__(self, z, a, b):
         """Evaluate Θ with NumPy; z, a, b are 3-sequences of arrays (broadcast)."""
         f = lambda v: tuple(np.asarray(c, float) for c in v)  # noqa: E731
@@ -131,6 +142,31 @@ class KernelND(Interaction):
     def to_dict(self) -> dict:
         return {"name": self.name, "radius": self.radius, "params": self.params.tolist(),
                 "param_names": list(self.param_names), "param_units": list(self.param_units)}
+
+
+def _generic_line_kernel(k: "KernelND"):
+    from .kernels import Kernel
+    fn, cf = k.fn, k.compiled
+
+    def on_line(z, u_here, u_there, p):
+        o = 0.0 * z
+        return fn((o, o, z), (0.0 * u_here, 0.0 * u_here, u_here), (0.0 * u_there, 0.0 * u_there, u_there), p)[2]
+
+    @numba.njit(inline="always")
+    def on_line_compiled(z, u_here, u_there, p):
+        return cf((0.0, 0.0, z), (0.0, 0.0, u_here), (0.0, 0.0, u_there), p)[2]
+
+    return Kernel(on_line, k.params.copy(), k.radius, name=f"{k.name}_on_line", param_names=k.param_names,
+                  param_units=k.param_units, compiled=on_line_compiled)
+
+
+def _walton_braun_on_line(k: "KernelND"):
+    from .kernels import walton_braun
+    return walton_braun(float(k.params[0]), float(k.params[1]), float(k.params[2]))
+
+
+LINE_RESTRICTIONS: dict = {}
+"""Registered restrictions of n-D kernels to a line: kernel function -> (KernelND -> 1-D Kernel)."""
 
 
 def walton_braun_nd(strength: float, dissipation: float, radius: float) -> KernelND:
@@ -179,3 +215,6 @@ class BSRModelND:
 
     def to_dict(self) -> dict:
         return {"kernel": self.kernel.to_dict(), "motion": self.motion.to_dict(), "gravity": self.gravity}
+
+
+LINE_RESTRICTIONS[_walton_braun_nd] = _walton_braun_on_line
