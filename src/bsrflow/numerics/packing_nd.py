@@ -20,10 +20,12 @@ below (mirror: ρ, δ_max even, u_z odd, u_x, u_y even), vacuum above (empty gho
 
 A horizontally uniform state evolves as the 1-D formulation at the same Δt: the horizontal
 flux differences of equal states are exactly 0 (the horizontal velocity stays exactly 0) and
-the vertical update is the 1-D one's formula; the two agree to round-off, 2.7e-11 (2-D) and
-2.1e-12 (3-D) relative in ρ after 7·10⁴ and 1.1·10⁵ steps of a tapped 4-sphere column
+the vertical update is the 1-D one's formula.  With the 1-D law's constants (:meth:`PackingLawND.
+from_1d` keeps its sphere mass m exactly, and the sound-speed bound is the 1-D formula d√(k2/m))
+the two are equal bit for bit over 7·10⁴ and 1.1·10⁵ steps of a tapped 4-sphere column
 (``bsrflow verify --case embedding_packing``: cases ``embedding_packing_2d`` / ``_3d``,
-:func:`verify_cases`), the same number of steps.
+:func:`verify_cases`: error 0); before, with m = ρ_c d rounded, they differed by 2.7e-11 / 2.1e-12.
+A column (dim = 1) runs the 1-D finite volumes themselves.
 """
 
 from __future__ import annotations
@@ -59,6 +61,9 @@ class PackingLawND(Interaction):
     restitution: float
     diameter: float
     close_packing_density: float
+    particle_mass: float | None = None
+    """The 1-D law's sphere mass m when built from it (:meth:`from_1d`: then m_eff is m exactly,
+    not ρ_c d rounded); None otherwise."""
 
     def __post_init__(self):
         for name in ("k1", "diameter", "close_packing_density"):
@@ -78,7 +83,7 @@ class PackingLawND(Interaction):
     def from_1d(cls, law):
         """The 1-D law (:class:`bsrflow.physics.packing.PackingLaw`) on a unit cross-section:
         the same numbers (the embedding check)."""
-        return cls(law.k1, law.restitution, law.diameter, law.close_packing_density)
+        return cls(law.k1, law.restitution, law.diameter, law.close_packing_density, law.particle_mass)
 
     @property
     def k2(self) -> float:
@@ -86,12 +91,16 @@ class PackingLawND(Interaction):
 
     @property
     def m_eff(self) -> float:
-        """ρ_c d: the 1-D kernels' "particle mass" (δ = d − m/ρ)."""
+        """ρ_c d: the 1-D kernels' "particle mass" (δ = d − m/ρ); the 1-D law's m when built
+        from it."""
+        if self.particle_mass is not None:
+            return self.particle_mass
         return self.close_packing_density * self.diameter
 
     def wave_speed(self) -> float:
-        """Bound on the sound speed at close packing, √(k2 m_eff)/ρ_c [m/s]."""
-        return math.sqrt(self.k2 * self.m_eff) / self.close_packing_density
+        """Bound on the sound speed at close packing, √(k2 m_eff)/ρ_c = d √(k2/m_eff) [m/s] (the
+        1-D law's formula)."""
+        return self.diameter * math.sqrt(self.k2 / self.m_eff)
 
     def wave_speed_bound(self, state=None) -> float:
         """√(k2 m_eff)/ρ_c [m/s] for every state: no denser state has a faster wave."""
@@ -335,7 +344,9 @@ def fv_advance_nd(q, t, t_stop, dim, dx, cfl, c_bound, d, m, k1, k2, rho_tiny, r
 
 
 class EulerianPackingND:
-    """The n-D packing continuum on ``grid`` (GridND: periodic sides, floor, vacuum top).
+    """The n-D packing continuum on ``grid`` (GridND: periodic sides, floor, vacuum top).  On a
+    column (dim = 1) the 1-D finite volumes of :class:`bsrflow.numerics.packing.EulerianPacking`
+    run (bit for bit its results for the same law and cfl), in the n-D layout.
 
     law : :class:`PackingLawND`; motion : an applied motion (:mod:`bsrflow.physics.motion`);
     gravity g [m/s²]; cfl in (0, 0.5/n] (default 0.4/n); rho0 : initial density (*grid.shape)
@@ -349,9 +360,6 @@ class EulerianPackingND:
         if not isinstance(grid, GridND) or grid.bc_lower != "floor" or grid.bc_upper != "vacuum" or \
                 any(b != "periodic" for b in grid.bc_horizontal):
             raise ValueError("grid must be a GridND with periodic sides, a floor below and a vacuum top")
-        if grid.dim == 1:
-            raise ValueError("grid: a column (dim = 1) of the packing continuum runs in bsrflow.numerics.packing "
-                             "(EulerianPacking, LagrangianPacking); EulerianPackingND needs dim = 2 or 3")
         self.dim = grid.dim
         lim = 0.5 / self.dim
         cfl = 0.4 / self.dim if cfl is None else float(cfl)
@@ -362,14 +370,21 @@ class EulerianPackingND:
         if rho0.shape != tuple(grid.shape) or not np.all(np.isfinite(rho0)) or np.any(rho0 < 0):
             raise ValueError(f"rho0 must be finite, >= 0, of shape {tuple(grid.shape)}")
         self.law, self.grid, self.motion, self.gravity, self.cfl = law, grid, motion, float(gravity), cfl
-        shape3 = (grid.shape[0], 1, grid.shape[1]) if self.dim == 2 else tuple(grid.shape)
-        self.q = np.zeros((5,) + shape3)
-        self.q[RHO] = rho0.reshape(shape3)
+        if self.dim == 1:
+            # a column: the 1-D finite volumes of bsrflow.numerics.packing (EulerianPacking's
+            # compiled pieces, its state layout (ρ, ρu, ρδ_max) with two ghost cells a side)
+            n = grid.shape[0]
+            self.q = np.zeros((3, n + 2 * pk.NG))
+            self.q[pk.RHO, pk.NG:pk.NG + n] = rho0
+        else:
+            shape3 = (grid.shape[0], 1, grid.shape[1]) if self.dim == 2 else tuple(grid.shape)
+            self.q = np.zeros((5,) + shape3)
+            self.q[RHO] = rho0.reshape(shape3)
         rc = law.close_packing_density
         self.rho_tiny = 1e-12 * rc
         self.rho_floor = 1e-30 * rc
         self.c_bound = law.wave_speed_bound()       # the interaction's own bound
-        self.counters = np.zeros(3, dtype=np.int64)
+        self.counters = np.zeros(4, dtype=np.int64)
         self.steps = 0
         self._fn = motion.fn
         self._params = np.ascontiguousarray(motion.params, dtype=np.float64)
@@ -379,6 +394,10 @@ class EulerianPackingND:
         return {"q": self.q}
 
     def apply_velocity_jump(self, dv):
+        if self.dim == 1:
+            s = slice(pk.NG, pk.NG + self.grid.shape[0])
+            self.q[pk.MOM, s] -= dv * self.q[pk.RHO, s]
+            return
         self.q[MZ] -= dv * self.q[RHO]
 
     PARALLEL_MIN_CELLS = 32768
@@ -398,6 +417,17 @@ class EulerianPackingND:
         from .packing import PackingError
         law = self.law
         self.counters[1:] = 0
+        if self.dim == 1:
+            t = pk.fv_advance(self.q, float(t), float(t_stop), self.grid.dx, self.cfl, self.c_bound, law.diameter,
+                              law.m_eff, law.k1, law.k2, self.rho_tiny, self.rho_floor, self._fn, self._params,
+                              self.gravity, self.counters)
+            self.steps = int(self.counters[0])
+            status = int(self.counters[1])
+            if status:
+                msg = {1: "negative density", 2: "non-finite state", 3: "material reached the top of the domain"}[status]
+                where = float(self.grid.z[min(int(self.counters[2]), self.grid.shape[0] - 1)])
+                raise PackingError(f"{msg} at t = {t:.6g} s, z = {where:.4g} m (cell {int(self.counters[2])})", t, where)
+            return t
         t = fv_advance_nd(self.q, float(t), float(t_stop), self.dim, self.grid.dx, self.cfl, self.c_bound,
                           law.diameter, law.m_eff, law.k1, law.k2, self.rho_tiny, self.rho_floor, self._fn,
                           self._params, self.gravity, self.counters)
@@ -411,6 +441,11 @@ class EulerianPackingND:
     def observe(self):
         """(u (n, *shape) [m/s] floor frame, rho (*shape) [kg/m^n]) in the user layout."""
         q = self.q
+        if self.dim == 1:
+            n = self.grid.shape[0]
+            r = q[pk.RHO, pk.NG:pk.NG + n].copy()
+            u = np.where(r > self.rho_tiny, q[pk.MOM, pk.NG:pk.NG + n] / np.where(r > 0, r, 1.0), 0.0)
+            return u[None, :], r
         r = q[RHO]
         safe = np.where(r > self.rho_tiny, r, 1.0)
         comps = [MX, MZ] if self.dim == 2 else [MX, MY, MZ]
