@@ -112,3 +112,22 @@ def test_layer_tracers_are_written_and_resume_bit_for_bit(tmp_path):
     b, _ = read_snapshots(part)
     for k in ("time", "rho", "tracer_x", "tracer_z"):
         np.testing.assert_array_equal(a[k], b[k])
+
+
+def test_layer_tracers_in_the_vtk_files(tmp_path):
+    """With VTK output the tracers are a point cloud per snapshot (part 1 of the .pvd)."""
+    import meshio
+
+    cfgfile = tmp_path / "layer.toml"
+    cfgfile.write_text(CONFIG.replace("t_end = 0.12", "t_end = 0.03")
+                       + "[tracers]\npositions = [[0.01, 0.004], [0.02, 0.012]]\n")
+    out = tmp_path / "layer.nc"
+    run_layer_config(load_layer_config(cfgfile), out)
+    pvd = (tmp_path / "layer_vtk" / "layer.pvd").read_text()
+    assert pvd.count('part="1"') == 4 and "layer_tracers_000003.vtu" in pvd
+    cloud = meshio.read(tmp_path / "layer_vtk" / "layer_tracers_000003.vtu")
+    ds = xr.open_dataset(out)
+    np.testing.assert_allclose(cloud.points[:, 0], ds["tracer_x"].values[3], rtol=1e-12)
+    np.testing.assert_allclose(cloud.points[:, 2], ds["tracer_z"].values[3] - ds["floor"].values[3], rtol=1e-12)
+    np.testing.assert_array_equal(cloud.point_data["tracer [1]"], [0.0, 1.0])
+    ds.close()

@@ -1,6 +1,6 @@
 """VTK output of 2-D / 3-D fields for ParaView, beside the netCDF file (issue #19).
 
-:class:`VTKWriter` is an observer ``obs(t, u, rho)`` of
+:class:`VTKWriter` is an observer ``obs(t, u, rho, tracers)`` of
 :meth:`bsrflow.numerics.solver_nd.SimulationND.run`.  Every snapshot becomes one VTK XML
 unstructured-grid file ``<stem>_<k>.vtu`` (written by meshio: hexahedral cells in 3-D,
 quadrilaterals in 2-D, the grid's cells exactly) and the collection ``<stem>.pvd`` lists them with
@@ -14,6 +14,10 @@ name                   units        meaning
 ``density [kg/m^3]``   kg/m³        ρ (2-D runs: ``density [kg/m^2]``, per unit depth)
 ``velocity [m/s]``     m/s          (u_x, u_y, u_z) relative to the floor (2-D: u_y = 0)
 =====================  ===========  =============================================
+
+Tracers (a run with tracers): one more file per snapshot, ``<stem>_tracers_<k>.vtu``, with the
+tracers as points (VTK vertices) and their index as the point field ``tracer [1]``; the ``.pvd``
+lists them as part 1 of each time step, beside the fields (part 0).
 
 Coordinates [m]: the floor frame, z vertical (a 2-D run's (x, z) plane is put at y = 0, so z
 stays vertical in ParaView).  The times [s] are those of the ``.pvd`` collection (``timestep``);
@@ -56,8 +60,8 @@ class VTKWriter:
 
     grid : :class:`bsrflow.numerics.grid_nd.GridND`; stem : output path without suffix (its
     folder must exist).
-    Call ``writer(t, u, rho)`` at every save (u (n, *shape) [m/s], rho (*shape) [kg/m^n],
-    user layout).  ``files`` lists the ``.vtu`` written, ``pvd`` is the collection file."""
+    Call ``writer(t, u, rho, tracers=None)`` at every save (u (n, *shape) [m/s], rho (*shape)
+    [kg/m^n], tracers (n_tr, n) [m] floor frame or None; user layout).  ``files`` lists the ``.vtu`` written, ``pvd`` is the collection file."""
 
     def __init__(self, grid, stem):
         import meshio  # noqa: F401  (fail here, before the run, if it is missing)
@@ -73,6 +77,7 @@ class VTKWriter:
         self.pvd = Path(f"{self.stem}.pvd")
         self.files: list[Path] = []
         self.times: list[float] = []
+        self.tracer_files: list[Path | None] = []
         self._points, self._cells = self._mesh()
 
     def _mesh(self):
@@ -119,8 +124,22 @@ class VTKWriter:
         path = Path(f"{self.stem}_{k:06d}.vtu")
         mesh = meshio.Mesh(self._points, self._cells, cell_data={n: [v] for n, v in fields.items()})
         _replace_atomically(path, lambda p: meshio.write(p, mesh, file_format="vtu"))
+        tpath = None
+        if tracers is not None and len(tracers) > 0:
+            tr = np.asarray(tracers, dtype=float)
+            if tr.ndim != 2 or tr.shape[1] != self.dim:
+                raise ValueError(f"VTK output: tracers of shape {tr.shape}, expected (n, {self.dim})")
+            pts = np.zeros((tr.shape[0], 3))
+            pts[:, 0], pts[:, 2] = tr[:, 0], tr[:, -1]
+            if self.dim == 3:
+                pts[:, 1] = tr[:, 1]
+            cloud = meshio.Mesh(pts, [("vertex", np.arange(tr.shape[0])[:, None])],
+                                point_data={"tracer [1]": np.arange(tr.shape[0], dtype=float)})
+            tpath = Path(f"{self.stem}_tracers_{k:06d}.vtu")
+            _replace_atomically(tpath, lambda p: meshio.write(p, cloud, file_format="vtu"))
         self.files.append(path)
         self.times.append(t)
+        self.tracer_files.append(tpath)
         self._write_pvd()
 
     def keep_before(self, t_keep):
@@ -128,17 +147,24 @@ class VTKWriter:
         (later ones are overwritten as the run goes on) and rewrite the ``.pvd``."""
         import re
 
-        self.files, self.times = [], []
+        self.files, self.times, self.tracer_files = [], [], []
         if self.pvd.exists():
-            for t, name in re.findall(r'timestep="([^"]+)" part="0" file="([^"]+)"', self.pvd.read_text()):
+            text = self.pvd.read_text()
+            tracer_of = dict(re.findall(r'timestep="([^"]+)" part="1" file="([^"]+)"', text))
+            for t, name in re.findall(r'timestep="([^"]+)" part="0" file="([^"]+)"', text):
                 if float(t) < t_keep:
                     self.times.append(float(t))
                     self.files.append(self.pvd.parent / name)
+                    self.tracer_files.append(self.pvd.parent / tracer_of[t] if t in tracer_of else None)
         self._write_pvd()
 
     def _write_pvd(self):
-        rows = "\n".join(f'    <DataSet timestep={quoteattr(repr(t))} part="0" file={quoteattr(f.name)}/>'
-                         for t, f in zip(self.times, self.files))
+        rows = []
+        for t, f, tf in zip(self.times, self.files, self.tracer_files):
+            rows.append(f'    <DataSet timestep={quoteattr(repr(t))} part="0" file={quoteattr(f.name)}/>')
+            if tf is not None:
+                rows.append(f'    <DataSet timestep={quoteattr(repr(t))} part="1" file={quoteattr(tf.name)}/>')
+        rows = "\n".join(rows)
         text = ('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n  <Collection>\n'
                 f"{rows}\n  </Collection>\n</VTKFile>\n")
         _replace_atomically(self.pvd, lambda p: p.write_text(text))
