@@ -97,11 +97,24 @@ def hlle_combine(SL, SR, fL, fR, qL, qR):
 
 
 @numba.njit(cache=True, inline="always")
+def no_tension(f_mass, f_mom, uL, uR):
+    """The face's normal momentum flux with no tension: at least the advective flux of the
+    upwind side, f_mass · u_upwind (u_L if material flows to the right, else u_R).  The contact
+    law carries no tension, so no face may; the HLLE flux's viscous term, of order cΔx/2 with the
+    contact wave speed c, would otherwise pull separating material together (a numerical
+    cohesion that kept blocks of the flying column at close packing, docs/model.md)."""
+    adv = f_mass * (uL if f_mass > 0.0 else uR)
+    return f_mom if f_mom > adv else adv
+
+
+@numba.njit(cache=True, inline="always")
 def _hlle(rL, uL, hL, rR, uR, hR, d, m, k1, k2, c_cap, rho_tiny):
-    """HLLE flux of (ρu, ρu² + P, ρuδ_max) between the face states L and R (see fv_rhs)."""
+    """HLLE flux of (ρu, ρu² + P, ρuδ_max) between the face states L and R (see fv_rhs), the
+    momentum flux without tension (:func:`no_tension`)."""
     SL, SR, uL, uR, pL, pR = hlle_waves(rL, uL, hL, rR, uR, hR, d, m, k1, k2, c_cap, rho_tiny)
-    return (hlle_combine(SL, SR, rL * uL, rR * uR, rL, rR),
-            hlle_combine(SL, SR, rL * uL * uL + pL, rR * uR * uR + pR, rL * uL, rR * uR),
+    f_mass = hlle_combine(SL, SR, rL * uL, rR * uR, rL, rR)
+    f_mom = hlle_combine(SL, SR, rL * uL * uL + pL, rR * uR * uR + pR, rL * uL, rR * uR)
+    return (f_mass, no_tension(f_mass, f_mom, uL, uR),
             hlle_combine(SL, SR, rL * uL * hL, rR * uR * hR, rL * hL, rR * hR))
 
 
@@ -115,7 +128,8 @@ def fv_rhs(q, dq, hi, dx, accel, d, m, k1, k2, c_cap, rho_tiny, w, flux):
     S_L = min(u_L − c_L, û − ĉ), S_R = max(u_R + c_R, û + ĉ), û the √ρ-weighted mean velocity and
     ĉ² = (P_R − P_L)/(ρ_R − ρ_L) the secant (Rankine–Hugoniot) sound speed, capped at ``c_cap``;
     at a stress-free edge of the packing (P = 0 on both sides) ĉ = 0, so no material is smeared
-    into the vacuum at the packing's sound speed.  Source: ρ·accel in the momentum [N/m].
+    into the vacuum at the packing's sound speed.  The momentum flux carries no tension
+    (:func:`no_tension`).  Source: ρ·accel in the momentum [N/m].
     Work arrays: w (3, n+4), flux (3, n+1)."""
     for j in range(hi + 4):                       # cells -2 .. hi+1 (padded index j = NG + k)
         r = q[RHO, j]

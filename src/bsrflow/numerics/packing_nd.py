@@ -118,7 +118,8 @@ class PackingLawND(Interaction):
 @numba.njit(cache=True, inline="always")
 def _axis_face(wr, wu, wt1, wt2, wh, jl, jr, d, m, k1, k2, c_cap, rho_tiny):
     """HLLE fluxes (mass, normal momentum, transverse momenta 1, 2, history) at the face between
-    padded cells jl and jr of one line of primitives (the 1-D fv_rhs reconstruction)."""
+    padded cells jl and jr of one line of primitives (the 1-D fv_rhs reconstruction); the normal
+    momentum flux carries no tension (``packing_kernels.no_tension``)."""
     rL = wr[jl] + 0.5 * pk._minmod(wr[jl] - wr[jl - 1], wr[jr] - wr[jl])
     uL = wu[jl] + 0.5 * pk._minmod(wu[jl] - wu[jl - 1], wu[jr] - wu[jl])
     hL = wh[jl] + 0.5 * pk._minmod(wh[jl] - wh[jl - 1], wh[jr] - wh[jl])
@@ -134,8 +135,9 @@ def _axis_face(wr, wu, wt1, wt2, wh, jl, jr, d, m, k1, k2, c_cap, rho_tiny):
         aL, bL = 0.0, 0.0
     if rR <= rho_tiny:
         aR, bR = 0.0, 0.0
-    return (pk.hlle_combine(SL, SR, rL * uL, rR * uR, rL, rR),
-            pk.hlle_combine(SL, SR, rL * uL * uL + pL, rR * uR * uR + pR, rL * uL, rR * uR),
+    f_mass = pk.hlle_combine(SL, SR, rL * uL, rR * uR, rL, rR)
+    f_mom = pk.hlle_combine(SL, SR, rL * uL * uL + pL, rR * uR * uR + pR, rL * uL, rR * uR)
+    return (f_mass, pk.no_tension(f_mass, f_mom, uL, uR),
             pk.hlle_combine(SL, SR, rL * uL * aL, rR * uR * aR, rL * aL, rR * aR),
             pk.hlle_combine(SL, SR, rL * uL * bL, rR * uR * bR, rL * bL, rR * bR),
             pk.hlle_combine(SL, SR, rL * uL * hL, rR * uR * hR, rL * hL, rR * hR))

@@ -24,7 +24,7 @@ import numpy as np
 __all__ = ["RHO", "MOM", "HIST", "NG", "contact_force", "history_update", "wave_speed", "minmod",
            "hlle_flux", "fill_ghosts", "fv_rhs", "fv_post_step", "fv_time_step", "active_top",
            "ssp_rk3_step", "bond_lengths", "lagrangian_forces", "lagrangian_accelerations",
-           "lagrangian_history", "verlet_step", "hlle_waves", "hlle_combine", "fv_rhs_nd"]
+           "lagrangian_history", "verlet_step", "hlle_waves", "hlle_combine", "fv_rhs_nd", "no_tension"]
 
 RHO, MOM, HIST = 0, 1, 2
 NG = 2
@@ -73,13 +73,21 @@ def hlle_flux(rL, uL, hL, rR, uR, hR, d, m, k1, k2, c_cap, rho_tiny):
     (0 between two vacuum states), ĉ² = (P_R − P_L)/(ρ_R − ρ_L) (secant; ĉ = 0 where negative)
     unless |ρ_R − ρ_L| ≤ 1e-12 (ρ_L + ρ_R), then ĉ = max(c_L, c_R); ĉ ≤ c_cap.
     F = F_L if S_L > 0, F_R if S_R < 0, (F_L + F_R)/2 if S_L = S_R, else
-    (S_R F_L − S_L F_R + S_L S_R (U_R − U_L)) / (S_R − S_L)."""
+    (S_R F_L − S_L F_R + S_L S_R (U_R − U_L)) / (S_R − S_L); then the momentum flux is raised to
+    at least the upwind advective flux F_ρ u_upwind (no tension through a face)."""
     SL, SR, uL, uR, pL, pR = hlle_waves(rL, uL, hL, rR, uR, hR, d, m, k1, k2, c_cap, rho_tiny)
     UL = np.array([rL, rL * uL, rL * hL])
     UR = np.array([rR, rR * uR, rR * hR])
     FL = np.array([rL * uL, rL * uL ** 2 + pL, rL * uL * hL])
     FR = np.array([rR * uR, rR * uR ** 2 + pR, rR * uR * hR])
-    return hlle_combine(SL, SR, FL, FR, UL, UR)
+    F = hlle_combine(SL, SR, FL, FR, UL, UR)
+    F[1] = no_tension(F[0], F[1], uL, uR)
+    return F
+
+
+def no_tension(f_mass, f_mom, uL, uR):
+    """max(f_mom, f_mass u_upwind): the momentum flux carries no tension (u_L where f_mass > 0)."""
+    return np.maximum(f_mom, f_mass * np.where(f_mass > 0.0, uL, uR))
 
 
 def hlle_combine(SL, SR, FL, FR, UL, UR):
@@ -154,6 +162,7 @@ def fv_rhs_nd(q, dim, dx, accel, d, m, k1, k2, c_cap, rho_tiny):
         F = {0: hlle_combine(SL, SR, rL * uL0, rR * uR0, rL, rR),
              normal: hlle_combine(SL, SR, rL * uL0 ** 2 + pL, rR * uR0 ** 2 + pR, rL * uL0, rR * uR0),
              4: hlle_combine(SL, SR, rL * uL0 * hL, rR * uR0 * hR, rL * hL, rR * hR)}
+        F[normal] = no_tension(F[0], F[normal], uL0, uR0)
         for c, a_, b_ in zip(others, tL, tR):
             a_ = np.where(rL > rho_tiny, a_, 0.0)
             b_ = np.where(rR > rho_tiny, b_, 0.0)
