@@ -45,6 +45,8 @@ from . import packing_kernels as pk
 __all__ = ["PackingLawND", "EulerianPackingND", "run_packing_nd", "fv_rhs_nd", "verify_cases"]
 
 RHO, MX, MY, MZ, HIST = 0, 1, 2, 3, 4
+LINE_BLOCKS = 64
+"""Blocks the horizontal lines of a stage are shared out in (each allocates its work arrays once)."""
 
 
 @dataclass(frozen=True)
@@ -203,41 +205,54 @@ def fv_rhs_nd(q, dq, dim, dx, accel, d, m, k1, k2, c_cap, rho_tiny):
         nB = NY if axis == 0 else NX
         cn = MX if axis == 0 else MY
         ct = MY if axis == 0 else MX
-        for p in prange(nB * NZ):
-            jb = p // NZ
-            kk = p - jb * NZ
+        # LINE_BLOCKS contiguous blocks of lines, each with its work arrays allocated once
+        # (allocating them per line, 6 · nB · NZ times per axis and stage, serialised the threads
+        # on the allocator: 2-thread efficiency 0.76-0.81 at 64³)
+        n_lines = nB * NZ
+        n_blocks = min(n_lines, LINE_BLOCKS)
+        for blk in prange(n_blocks):
             wr = np.zeros(nA + 5)
             wu = np.zeros(nA + 5)
             wa = np.zeros(nA + 5)
             wb = np.zeros(nA + 5)
             wh = np.zeros(nA + 5)
             fl = np.zeros((5, nA + 1))
-            for ia in range(nA):
-                i, j = (ia, jb) if axis == 0 else (jb, ia)
-                r, u = _primitive(q, cn, i, j, kk, rho_tiny)
-                wr[ia + 2], wu[ia + 2] = r, u
-                wa[ia + 2] = q[MZ, i, j, kk] / r if r > 0.0 else 0.0
-                wb[ia + 2] = q[ct, i, j, kk] / r if r > 0.0 else 0.0
-                wh[ia + 2] = q[HIST, i, j, kk] / r if r > 0.0 else 0.0
-            for g in range(2):                     # periodic ghosts
-                src_lo, src_hi = nA - 1 - g, g
-                wr[1 - g], wu[1 - g], wa[1 - g], wb[1 - g], wh[1 - g] = (
-                    wr[src_lo + 2], wu[src_lo + 2], wa[src_lo + 2], wb[src_lo + 2], wh[src_lo + 2])
-                wr[nA + 2 + g], wu[nA + 2 + g], wa[nA + 2 + g], wb[nA + 2 + g], wh[nA + 2 + g] = (
-                    wr[src_hi + 2], wu[src_hi + 2], wa[src_hi + 2], wb[src_hi + 2], wh[src_hi + 2])
-            wr[nA + 4], wu[nA + 4], wa[nA + 4], wb[nA + 4], wh[nA + 4] = wr[4], wu[4], wa[4], wb[4], wh[4]
-            _line_fluxes(wr, wu, wa, wb, wh, nA, fl, d, m, k1, k2, c_cap, rho_tiny)
-            for ia in range(nA):
-                i, j = (ia, jb) if axis == 0 else (jb, ia)
-                dq[RHO, i, j, kk] += -(fl[0, ia + 1] - fl[0, ia]) * inv_dx
-                dq[cn, i, j, kk] += -(fl[1, ia + 1] - fl[1, ia]) * inv_dx
-                dq[MZ, i, j, kk] += -(fl[2, ia + 1] - fl[2, ia]) * inv_dx
-                dq[ct, i, j, kk] += -(fl[3, ia + 1] - fl[3, ia]) * inv_dx
-                dq[HIST, i, j, kk] += -(fl[4, ia + 1] - fl[4, ia]) * inv_dx
+            for p in range(blk * n_lines // n_blocks, (blk + 1) * n_lines // n_blocks):
+                _horizontal_line(q, dq, p, NZ, nA, axis, cn, ct, wr, wu, wa, wb, wh, fl, inv_dx, d, m, k1, k2,
+                                 c_cap, rho_tiny)
     if dim == 2:
         for i in range(NX):
             for k in range(NZ):
                 dq[MY, i, 0, k] = 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def _horizontal_line(q, dq, p, NZ, nA, axis, cn, ct, wr, wu, wa, wb, wh, fl, inv_dx, d, m, k1, k2, c_cap, rho_tiny):
+    """Add the flux differences of horizontal line p = jb·NZ + kk along ``axis`` to dq."""
+    jb = p // NZ
+    kk = p - jb * NZ
+    for ia in range(nA):
+        i, j = (ia, jb) if axis == 0 else (jb, ia)
+        r, u = _primitive(q, cn, i, j, kk, rho_tiny)
+        wr[ia + 2], wu[ia + 2] = r, u
+        wa[ia + 2] = q[MZ, i, j, kk] / r if r > 0.0 else 0.0
+        wb[ia + 2] = q[ct, i, j, kk] / r if r > 0.0 else 0.0
+        wh[ia + 2] = q[HIST, i, j, kk] / r if r > 0.0 else 0.0
+    for g in range(2):                     # periodic ghosts
+        src_lo, src_hi = nA - 1 - g, g
+        wr[1 - g], wu[1 - g], wa[1 - g], wb[1 - g], wh[1 - g] = (
+            wr[src_lo + 2], wu[src_lo + 2], wa[src_lo + 2], wb[src_lo + 2], wh[src_lo + 2])
+        wr[nA + 2 + g], wu[nA + 2 + g], wa[nA + 2 + g], wb[nA + 2 + g], wh[nA + 2 + g] = (
+            wr[src_hi + 2], wu[src_hi + 2], wa[src_hi + 2], wb[src_hi + 2], wh[src_hi + 2])
+    wr[nA + 4], wu[nA + 4], wa[nA + 4], wb[nA + 4], wh[nA + 4] = wr[4], wu[4], wa[4], wb[4], wh[4]
+    _line_fluxes(wr, wu, wa, wb, wh, nA, fl, d, m, k1, k2, c_cap, rho_tiny)
+    for ia in range(nA):
+        i, j = (ia, jb) if axis == 0 else (jb, ia)
+        dq[RHO, i, j, kk] += -(fl[0, ia + 1] - fl[0, ia]) * inv_dx
+        dq[cn, i, j, kk] += -(fl[1, ia + 1] - fl[1, ia]) * inv_dx
+        dq[MZ, i, j, kk] += -(fl[2, ia + 1] - fl[2, ia]) * inv_dx
+        dq[ct, i, j, kk] += -(fl[3, ia + 1] - fl[3, ia]) * inv_dx
+        dq[HIST, i, j, kk] += -(fl[4, ia + 1] - fl[4, ia]) * inv_dx
 
 
 @numba.njit(cache=True, parallel=True)
