@@ -1,5 +1,7 @@
 """Issue #19: `bsrflow run` of a 2-D / 3-D layer config: the n-D netCDF file and VTK files,
 one-line refusals, and an interrupted run resumed from its checkpoint bit for bit."""
+import os
+
 import numpy as np
 import pytest
 import xarray as xr
@@ -58,6 +60,18 @@ def test_bad_layer_configs_exit_2_with_one_line(text, field, tmp_path, capsys):
     assert f"error: {field}" in err and len(err.splitlines()) == 1
 
 
+def _interrupt_and_resume(cfg, part):
+    """Run ``cfg`` into ``part``, interrupted after t = 0.075 s (Ctrl-C), then ``--resume`` it."""
+    def stop(t):
+        if t > 0.075:
+            raise KeyboardInterrupt()
+
+    with pytest.raises(KeyboardInterrupt, match="--resume"):
+        run_layer_config(cfg, part, progress=stop)
+    assert os.path.exists(f"{part}.ckpt")
+    return run_layer_config(cfg, part, resume=True)
+
+
 def test_interrupted_layer_run_resumes_bit_for_bit(tmp_path):
     cfgfile = tmp_path / "layer.toml"
     cfgfile.write_text(CONFIG.replace("vtk = true", "vtk = false"))
@@ -65,15 +79,7 @@ def test_interrupted_layer_run_resumes_bit_for_bit(tmp_path):
     full = tmp_path / "full.nc"
     run_layer_config(cfg, full)
     part = tmp_path / "part.nc"
-
-    def stop(t):
-        if t > 0.075:
-            raise KeyboardInterrupt()
-
-    with pytest.raises(KeyboardInterrupt, match="--resume"):
-        run_layer_config(cfg, part, progress=stop)
-    assert (tmp_path / "part.nc.ckpt").exists()
-    outcome = run_layer_config(cfg, part, resume=True)
+    outcome = _interrupt_and_resume(cfg, part)
     assert outcome.resumed_from == pytest.approx(0.05)
     a, _ = read_snapshots(full)
     b, _ = read_snapshots(part)
@@ -100,14 +106,7 @@ def test_layer_tracers_are_written_and_resume_bit_for_bit(tmp_path):
     assert np.ptp(rise[:, 2]) > 1e-5                    # the tap moves them
     ds.close()
     part = tmp_path / "part.nc"
-
-    def stop(t):
-        if t > 0.075:
-            raise KeyboardInterrupt()
-
-    with pytest.raises(KeyboardInterrupt, match="--resume"):
-        run_layer_config(cfg, part, progress=stop)
-    run_layer_config(cfg, part, resume=True)
+    _interrupt_and_resume(cfg, part)
     a, _ = read_snapshots(full)
     b, _ = read_snapshots(part)
     for k in ("time", "rho", "tracer_x", "tracer_z"):

@@ -445,6 +445,14 @@ def test_a_column_runs_through_the_same_api_as_the_1d_solver_bit_for_bit():
         rest = sim.run(kept["u"], kept["r"], 0.12, t_start=0.07, save_times=res.t[res.t >= 0.07],
                        tracers=kept["tr"], restart=True)
         np.testing.assert_array_equal(rest.rho, res.rho[res.t >= 0.07])
+        du, dr = sim.rhs(np.zeros((1, n)), rho0, 0.03)
+        du1, dr1 = one.rhs(np.zeros(n), rho0, 0.03)
+        np.testing.assert_array_equal(du[0], du1)
+        np.testing.assert_array_equal(dr, dr1)
+    with pytest.raises(ValueError, match="SimulationND.advance_internal is a piece of the 2-D / 3-D"):
+        sim.advance_internal(None, None, 0.0, 1.0)
+    with pytest.raises(ValueError, match="ReferenceND: a column"):
+        ReferenceND(sim)
     # a user kernel goes through its generic restriction (the direct sum)
     user = KernelND(lambda z, a, b, p: _wb_like(z, a, b, p), [lam, eps, R], R, name="user")
     sim_u = SimulationND(BSRModelND(user, motion, 9.81), grid)

@@ -155,6 +155,14 @@ def _line_fluxes(wr, wu, wa, wb, wh, n, fl, d, m, k1, k2, c_cap, rho_tiny):
 
 
 @numba.njit(cache=True, inline="always")
+def _line_buffers(n):
+    """Work arrays of one line of n cells: primitives (ρ, u_normal, u_t1, u_t2, δ_max) with two
+    ghosts below and three above, and the fluxes (5, n + 1) at its faces."""
+    return (np.zeros(n + 5), np.zeros(n + 5), np.zeros(n + 5), np.zeros(n + 5), np.zeros(n + 5),
+            np.zeros((5, n + 1)))
+
+
+@numba.njit(cache=True, inline="always")
 def _primitive(q, c, i, j, k, rho_tiny):
     r = q[RHO, i, j, k]
     if r > rho_tiny:
@@ -169,13 +177,7 @@ def fv_rhs_nd(q, dq, dim, dx, accel, d, m, k1, k2, c_cap, rho_tiny):
     _, NX, NY, NZ = q.shape
     inv_dx = 1.0 / dx
     for i in prange(NX):
-        n = NZ
-        wr = np.zeros(n + 5)
-        wu = np.zeros(n + 5)
-        wa = np.zeros(n + 5)
-        wb = np.zeros(n + 5)
-        wh = np.zeros(n + 5)
-        fl = np.zeros((5, n + 1))
+        wr, wu, wa, wb, wh, fl = _line_buffers(NZ)
         for j in range(NY):
             # vertical line: padded index p = k + 2; floor mirror below, vacuum (zeros) above
             for k in range(NZ):
@@ -211,12 +213,7 @@ def fv_rhs_nd(q, dq, dim, dx, accel, d, m, k1, k2, c_cap, rho_tiny):
         n_lines = nB * NZ
         n_blocks = min(n_lines, LINE_BLOCKS)
         for blk in prange(n_blocks):
-            wr = np.zeros(nA + 5)
-            wu = np.zeros(nA + 5)
-            wa = np.zeros(nA + 5)
-            wb = np.zeros(nA + 5)
-            wh = np.zeros(nA + 5)
-            fl = np.zeros((5, nA + 1))
+            wr, wu, wa, wb, wh, fl = _line_buffers(nA)
             for p in range(blk * n_lines // n_blocks, (blk + 1) * n_lines // n_blocks):
                 _horizontal_line(q, dq, p, NZ, nA, axis, cn, ct, wr, wu, wa, wb, wh, fl, inv_dx, d, m, k1, k2,
                                  c_cap, rho_tiny)

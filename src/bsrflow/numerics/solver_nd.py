@@ -235,8 +235,7 @@ class SimulationND:
         self.tableau = get_stepper(self.scheme.stepper)
         self.kappa = self.stiffness_moment()
         # the interaction's wave-speed bound, with this scheme's discrete moment: c = √(n κ ρ)
-        self._wave_speed_fn = model.kernel.compiled_wave_speed()[0]
-        self.wave_speed_params = np.array([float(grid.dim) * self.kappa])
+        self._wave_speed_fn, self.wave_speed_params = model.kernel.compiled_wave_speed(grid.dim, moment=self.kappa)
         self.rho_max = float(rho_max)
         self.dt_min = float(dt_min)
         self.top_tolerance = float(top_tolerance)
@@ -262,6 +261,7 @@ class SimulationND:
         density linear in z (sampled at cell centres, o_z Δx from the cell) the quadrature sum
         is exactly -M ∂ρ/∂z, and c² = M ρ is the sound speed of the semi-discrete model at
         long wavelengths.  The solver's CFL bound uses c = sqrt(κ max ρ)."""
+        self._refuse_column("stiffness_moment")
         c3 = self._three(self.nodes).T
         oz = self.offsets[:, -1] * self.grid.dx
         zero = np.zeros(c3.shape[1])
@@ -271,6 +271,11 @@ class SimulationND:
             vals.append(abs(float(np.sum(self.weights * oz * th[2]))))
         return max(vals)
 
+    def _refuse_column(self, name):
+        if self._line is not None:
+            raise ValueError(f"SimulationND.{name} is a piece of the 2-D / 3-D discretisation; a column (dim = 1) "
+                             "runs the 1-D solver's (run and rhs work on it)")
+
     def _filter_code(self):
         return AVERAGES[self.average] if self.scheme.filter else 0
 
@@ -279,6 +284,7 @@ class SimulationND:
         """Advance internal-layout arrays (see :func:`to_internal`) in place from t to t_end
         (no jumps, no saving); ``tracers`` (n, 3) [m] internal (x, y, z) positions, moved in place.
         Returns (t, steps, status, where_flat_index, dt_last)."""
+        self._refuse_column("advance_internal")
         g, s, tb = self.grid, self.scheme, self.tableau
         tr = np.zeros((0, 3)) if tracers is None else tracers
         mode = 0 if tracers is None else (1 if s.tracer_integrator == "euler" else 2)
@@ -313,6 +319,9 @@ class SimulationND:
 
     def rhs(self, u, rho, t):
         """Semi-discrete right-hand side (du/dt (n, *shape) [m/s²], dρ/dt [kg/(m^n s)]) at t [s]."""
+        if self._line is not None:                   # a column: the 1-D solver's right-hand side
+            du, dr = self._line.rhs(np.asarray(u, float)[0], rho, t)
+            return du[None, :], dr
         g = self.grid
         ui, ri = to_internal(g, u, rho)
         up, rp = self._padded(ui, ri)
@@ -327,6 +336,7 @@ class SimulationND:
 
     def moving_average(self, u, rho, mode=None):
         """The moving average of (u, ρ) (user layout) with the grid's ghosts; mode 'na'/'tensor'."""
+        self._refuse_column("moving_average")
         g = self.grid
         ui, ri = to_internal(g, u, rho)
         ui, ri = ui.copy(), ri.copy()
@@ -513,6 +523,9 @@ class ReferenceND:
     the user layout (n components, n axes) with ghosts from ``np.pad``; for tests."""
 
     def __init__(self, sim: SimulationND):
+        if sim.grid.dim == 1:
+            raise ValueError("ReferenceND: a column (dim = 1) runs the 1-D solver; its NumPy reference is "
+                             "bsrflow.numerics.reference.ReferenceScheme")
         self.sim = sim
         self.grid = sim.grid
         self.W = sim.W

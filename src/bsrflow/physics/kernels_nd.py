@@ -118,10 +118,13 @@ class KernelND(Interaction):
         dim = len(state["u"]) if "u" in state else 3
         return float(np.sqrt(dim * self.stiffness_moment(dim) * _max_density(state)))
 
-    def compiled_wave_speed(self):
-        """(:func:`~bsrflow.physics.interaction.linear_wave_speed`, [3 M₃]) (the n-D solver
-        passes n times its discrete moment instead)."""
-        return linear_wave_speed, np.array([3.0 * self.stiffness_moment(3)])
+    def compiled_wave_speed(self, dim: int = 3, moment: float | None = None):
+        """(:func:`~bsrflow.physics.interaction.linear_wave_speed`, [n M]) in ``dim`` dimensions;
+        ``moment``: a discretisation's own M in place of the continuum's (the n-D solver passes
+        its discrete moment, so the continuum's ball quadrature, seconds on first use, is not
+        computed)."""
+        m = self.stiffness_moment(dim) if moment is None else float(moment)
+        return linear_wave_speed, np.array([float(dim) * m])
 
     def on_line(self):
         """The kernel restricted to a vertical line, as the 1-D :class:`~bsrflow.physics.kernels.Kernel`
