@@ -4,14 +4,18 @@ netCDF file (:class:`bsrflow.io.netcdf.NetCDFWriterND`), optionally VTK files fo
 (:class:`bsrflow.io.vtk.VTKWriter`), with checkpoints and ``--resume`` as the 1-D runs::
 
     [layer]
-    kind = "tapped_layer"        # or "vibrated_box"
-    dim = 3                      # and any field of TappedLayer / VibratedBox (SI units)
+    kind = "tapped_layer"        # or "vibrated_box", or "packing_bed" (the packing continuum)
+    dim = 3                      # and any field of TappedLayer / VibratedBox / PackingBed (SI units)
     t_end = 0.2
     [output]
     vtk = true                   # <out stem>_vtk/layer_*.vtu and layer.pvd
     checkpoint_every = 0.05      # [s], on snapshot times; 0: none; default about every 0.1 s
     [tracers]
     positions = [[0.01, 0.005], [0.01, 0.015]]   # initial positions [m] (floor frame, x (y) z)
+
+``kind = "packing_bed"`` (:class:`bsrflow.physics.packing_bed.PackingBed`) runs the n-D packing
+continuum (:class:`bsrflow.numerics.packing_nd.EulerianPackingND`) into the same files; its
+checkpoint holds the discretisation's named fields (history included); it takes no tracers.
 
 Tracers (optional) are moved with the interpolated velocity by the scheme's tracer integrator
 (:meth:`bsrflow.numerics.solver_nd.SimulationND.run`) and written as ``tracer_x`` (``tracer_y``),
@@ -40,7 +44,7 @@ from .config import ConfigError
 
 __all__ = ["is_layer_config", "load_layer_config", "run_layer_config", "LayerOutcome"]
 
-KINDS = ("tapped_layer", "vibrated_box")
+KINDS = ("tapped_layer", "vibrated_box", "packing_bed")
 _OUTPUT_KEYS = {"vtk": bool, "checkpoint_every": float}
 
 
@@ -64,6 +68,7 @@ class LayerConfig:
 
 def load_layer_config(path) -> LayerConfig:
     """Read and check a layer config (module docstring); ConfigError on the first problem."""
+    from ..physics.packing_bed import PackingBed
     from ..physics.scenarios_nd import TappedLayer, VibratedBox
 
     with open(path, "rb") as fh:
@@ -76,7 +81,7 @@ def load_layer_config(path) -> LayerConfig:
     kind = layer.pop("kind", "tapped_layer")
     if kind not in KINDS:
         raise ConfigError("layer.kind", f"{kind!r} is not one of {', '.join(KINDS)}")
-    cls = TappedLayer if kind == "tapped_layer" else VibratedBox
+    cls = {"tapped_layer": TappedLayer, "vibrated_box": VibratedBox, "packing_bed": PackingBed}[kind]
     names = {f.name: f for f in dataclasses.fields(cls)}
     kw = {}
     for key, value in layer.items():
@@ -100,6 +105,9 @@ def load_layer_config(path) -> LayerConfig:
     if ck is not None:
         if isinstance(ck, bool) or not isinstance(ck, (int, float)) or not (math.isfinite(ck) and ck >= 0.0):
             raise ConfigError("output.checkpoint_every", f"{ck!r} is outside the valid range [0, inf) s")
+    if kind == "packing_bed" and "tracers" in data:
+        raise ConfigError("tracers", "is not supported by kind = \"packing_bed\" (the n-D packing solver "
+                          "has no tracers yet); remove the [tracers] table")
     return LayerConfig(setup, vtk, None if ck is None else float(ck), raw.decode("utf-8"),
                        _tracer_positions(data.get("tracers"), setup))
 
@@ -161,6 +169,9 @@ def _checkpoint_times(save_times, interval):
 
 def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=None) -> LayerOutcome:
     """Run a layer config into ``out`` (module docstring)."""
+    from ..physics.packing_bed import PackingBed
+    if isinstance(cfg.setup, PackingBed):
+        return _run_packing_bed(cfg, out, resume=resume, progress=progress, log=log)
     from ..numerics.solver import Scheme, SimulationError, save_schedule
     from ..numerics.solver_nd import SimulationND
     from .netcdf import NetCDFWriterND, read_snapshots
@@ -242,4 +253,108 @@ def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=
         os.remove(ck_file)                            # the run is complete
     data, _ = read_snapshots(out)
     return LayerOutcome(out, "ok", int(data["time"].size), float(setup.t_end), int(steps0 + res.steps),
+                        wall0 + time.perf_counter() - wall, resumed, vtk_writer.pvd.as_posix() if vtk_writer else None)
+
+
+def _run_packing_bed(cfg: LayerConfig, out, *, resume=False, progress=None, log=None) -> LayerOutcome:
+    """:func:`run_layer_config` for ``kind = "packing_bed"``: the n-D packing continuum
+    (:class:`bsrflow.numerics.packing_nd.EulerianPackingND`) through the shared controller into
+    the same n-D netCDF file (and VTK files), with checkpoints of its named fields (the
+    conserved state, history included) and ``--resume`` bit for bit."""
+    from ..numerics.controller import drive_events
+    from ..numerics.solver import SimulationError, save_schedule
+    from .netcdf import NetCDFWriterND, read_snapshots
+    from .paths import check_output_file
+    from .vtk import VTKWriter
+
+    out = check_output_file(out, "--out")
+    log = log or (lambda msg: None)
+    setup = cfg.setup
+    disc = setup.discretisation()
+    grid = disc.grid
+    motion = disc.motion
+    floor = lambda t: motion.state(t)[0]  # noqa: E731
+    save_times = save_schedule(0.0, setup.t_end, setup.save_every)
+    ck_times = _checkpoint_times(save_times, cfg.checkpoint_every)
+    ck_file = checkpoint_path(out)
+    vtk_stem = os.path.splitext(out)[0] + "_vtk" if cfg.vtk else None
+    t0, steps0, resumed, wall0 = 0.0, 0, None, 0.0
+    attrs = {"config": cfg.text, "scheme": f"packing_{disc.name}", "kernel": "packing", "dimension": grid.dim,
+             "scenario": f"packing_bed_{grid.dim}d"}
+    if resume:
+        if not os.path.exists(ck_file):
+            raise ConfigError("--resume", f"no checkpoint {ck_file}; run without --resume")
+        ck = read_checkpoint(ck_file)
+        if ck.config != cfg.text:
+            raise ConfigError("--resume", f"{ck_file} was written by another config; run without --resume")
+        try:
+            disc.load_fields(ck.fields or {})
+        except (KeyError, ValueError) as exc:
+            raise ConfigError("--resume", f"the checkpoint's state does not match the config: {exc}") from None
+        t0, steps0, resumed, wall0 = float(ck.t), int(ck.steps), float(ck.t), float(ck.wall_time)
+        disc.counters[0] = steps0
+        disc.steps = steps0
+        writer = NetCDFWriterND.resume(out, t0, grid, floor, expected_snapshots=save_times.size)
+        save_times = save_times[save_times >= t0]
+    else:
+        if os.path.exists(ck_file):
+            os.remove(ck_file)                        # stale: belongs to an earlier run
+        writer = NetCDFWriterND(out, grid, floor, attrs, expected_snapshots=save_times.size)
+    observers = [writer]
+    vtk_writer = None
+    if vtk_stem:
+        os.makedirs(vtk_stem, exist_ok=True)
+        vtk_writer = VTKWriter(grid, os.path.join(vtk_stem, "layer"))
+        if resume:
+            vtk_writer.keep_before(t0)
+        observers.append(vtk_writer)
+    if setup.stiffness_factor < 1.0:
+        log(f"reduced contact stiffness: K x {setup.stiffness_factor:.4g}, impact Mach number "
+            f"M = {setup.impact_mach():.3g} (docs/model.md, \"Stiffness\")")
+    last = {"t": None}
+
+    def save(t):
+        u, rho = disc.observe()
+        for obs in observers:
+            obs(t, u, rho, None)
+        if progress is not None:
+            progress(t)
+
+    def on_checkpoint(t):
+        write_checkpoint(ck_file, Checkpoint(t, np.zeros(0), np.zeros(0), np.zeros((0, grid.dim)), int(disc.counters[0]),
+                                             0, wall0 + time.perf_counter() - wall, writer.n, cfg.text,
+                                             fields={k: v.copy() for k, v in disc.fields.items()}))
+        last["t"] = t
+        if progress is not None:
+            progress(t)
+
+    wall = time.perf_counter()
+    try:
+        log(f"compiling the {grid.dim}-D packing solver (once per process)")
+        disc.advance(t0, t0)
+        wall = time.perf_counter()
+        if progress is not None:
+            progress(t0)
+        drive_events(t0, float(setup.t_end), save_times, motion.jumps_between(t0, setup.t_end), ck_times[ck_times > t0],
+                     advance=disc.advance, apply_jump=disc.apply_velocity_jump, save=save, on_event=on_checkpoint)
+    except SimulationError as exc:
+        writer.close(f"stopped: {exc}")
+        raise
+    except KeyboardInterrupt as exc:
+        how = "by SIGTERM" if getattr(exc, "signal_name", "") == "SIGTERM" else "by Ctrl-C (SIGINT)"
+        writer.close(f"interrupted {how} after {writer.n} snapshots")
+        cont = (f"checkpoint {ck_file} at t = {last['t']:.6g} s: `--resume` continues from there"
+                if last["t"] is not None else "no checkpoint written yet: run again to start over")
+        exc.args = (f"interrupted {how}: {out} keeps {writer.n} snapshot(s); {cont}",)
+        exc.exit_code = 128 + int(getattr(exc, "signal_number", 2))
+        raise
+    except BaseException:
+        writer.close("failed")
+        raise
+    steps = int(disc.counters[0])
+    writer.close("ok", steps=steps)
+    if os.path.exists(ck_file):
+        os.remove(ck_file)                            # the run is complete
+    data, _ = read_snapshots(out)
+    return LayerOutcome(out, "ok", int(data["time"].size), float(setup.t_end), steps,
                         wall0 + time.perf_counter() - wall, resumed, vtk_writer.pvd.as_posix() if vtk_writer else None)

@@ -1,0 +1,155 @@
+"""Issue #19: the packing continuum in 2-D / 3-D from a config (``[layer] kind = "packing_bed"``):
+the n-D netCDF and VTK output, named fields through the checkpoint and a bit-for-bit resume,
+one-line refusals, the stiffness option, and a bed uniform in y equal to the 2-D bed."""
+import os
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from bsrflow.cli import main
+from bsrflow.io.layer_runner import load_layer_config, run_layer_config
+from bsrflow.io.netcdf import read_snapshots
+from bsrflow.numerics.packing_nd import PackingLawND, run_packing_nd
+from bsrflow.numerics.solver import save_schedule
+from bsrflow.physics.packing import PackingLaw
+from bsrflow.physics.packing_bed import PackingBed
+
+pytestmark = pytest.mark.usefixtures("one_numba_thread")
+
+CONFIG = """[layer]
+kind = "packing_bed"
+dim = 2
+box_width = 0.01
+bed_height = 0.015
+cells_per_diameter = 2
+settle_time = 0.05
+t_end = 0.12
+save_every = 0.01
+surface_perturbation = 0.2
+[output]
+vtk = true
+checkpoint_every = 0.05
+"""
+
+
+def test_packing_bed_config_runs_into_netcdf_and_vtk(tmp_path):
+    import meshio
+
+    cfg = tmp_path / "bed.toml"
+    cfg.write_text(CONFIG)
+    out = tmp_path / "bed.nc"
+    assert main(["run", str(cfg), "--out", str(out), "--quiet"]) == 0
+    ds = xr.open_dataset(out)
+    assert ds.attrs["status"] == "ok" and ds.attrs["scenario"] == "packing_bed_2d"
+    assert ds.attrs["kernel"] == "packing"
+    assert ds["rho"].dims == ("time", "x", "z") and ds["rho"].attrs["units"] == "kg m-2"
+    assert ds.sizes["time"] == 13 and float(ds["rho"].min()) >= 0.0
+    np.testing.assert_allclose(ds["mass"].values, ds["mass"].values[0], rtol=1e-12)
+    setup = load_layer_config(cfg).setup
+    assert ds["mass"].values[0] == pytest.approx(setup.mass(), rel=1e-14)
+    # the floor moved the bed: it left the floor (the mass centre rose by more than a tenth of d)
+    rise = ds["mass_centre"].values - ds["mass_centre"].values[0]
+    assert rise.max() > 0.1 * setup.diameter
+    assert float(np.abs(ds["u_x"]).max()) > 0.0          # the undulated top is not uniform in x
+    last = meshio.read(tmp_path / "bed_vtk" / "layer_000012.vtu")
+    np.testing.assert_array_equal(last.cell_data["density [kg/m^2]"][0], ds["rho"].values[-1].ravel())
+    ds.close()
+    assert not (tmp_path / "bed.nc.ckpt").exists()
+
+
+def test_interrupted_packing_bed_resumes_bit_for_bit(tmp_path):
+    """The checkpoint holds the named fields (history included); the resumed run equals the
+    uninterrupted one bit for bit."""
+    cfgfile = tmp_path / "bed.toml"
+    cfgfile.write_text(CONFIG.replace("vtk = true", "vtk = false"))
+    cfg = load_layer_config(cfgfile)
+    full = tmp_path / "full.nc"
+    run_layer_config(cfg, full)
+    part = tmp_path / "part.nc"
+
+    def stop(t):
+        if t > 0.075:
+            raise KeyboardInterrupt()
+
+    with pytest.raises(KeyboardInterrupt, match="--resume"):
+        run_layer_config(cfg, part, progress=stop)
+    assert os.path.exists(f"{part}.ckpt")
+    from bsrflow.io.checkpoint import read_checkpoint
+    ck = read_checkpoint(f"{part}.ckpt")
+    assert set(ck.fields) == {"rho", "momentum_x", "momentum_z", "rho_delta_max"}
+    assert np.max(ck.fields["rho_delta_max"]) > 0.0   # the settled bed is compressed: history carried
+    outcome = run_layer_config(cfg, part, resume=True)
+    assert outcome.resumed_from == pytest.approx(0.05)
+    a, _ = read_snapshots(full)
+    b, _ = read_snapshots(part)
+    for k in ("time", "rho", "u_x", "u_z", "mass_centre"):
+        np.testing.assert_array_equal(a[k], b[k])
+
+
+@pytest.mark.parametrize("text, field", [
+    ("[layer]\nkind = 'packing_bed'\nnosuch = 1\n", "layer.nosuch"),
+    ("[layer]\nkind = 'packing_bed'\ndim = 1\n", "layer.dim"),
+    ("[layer]\nkind = 'packing_bed'\nstiffness_factor = 0\n", "layer.stiffness_factor"),
+    ("[layer]\nkind = 'packing_bed'\nrestitution = 1.5\n", "layer.restitution"),
+    ("[layer]\nkind = 'packing_bed'\nphi_c = 0.8\n", "layer.phi_c"),
+    ("[layer]\nkind = 'packing_bed'\ngamma = -1\n", "layer.gamma"),
+    ("[layer]\nkind = 'packing_bed'\ncfl = 0.3\n", "layer.cfl"),
+    ("[layer]\nkind = 'packing_bed'\ncells_per_diameter = 0\n", "layer.cells_per_diameter"),
+    ("[layer]\nkind = 'packing_bed'\ndomain_height = 0.01\n", "layer.domain_height"),
+    ("[layer]\nkind = 'packing_bed'\n[tracers]\npositions = [[0.01, 0.01, 0.01]]\n", "tracers"),
+])
+def test_bad_packing_bed_configs_exit_2_with_one_line(text, field, tmp_path, capsys):
+    cfg = tmp_path / "bad.toml"
+    cfg.write_text(text)
+    assert main(["run", str(cfg), "--out", str(tmp_path / "bad.nc")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert f"error: {field}" in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "bad.nc").exists()
+
+
+def test_bed_uniform_in_y_equals_the_2d_bed():
+    """In 2-D the fields are a 3-D bed's uniform in y (per metre of depth): the 3-D run of that
+    bed equals the 2-D run bit for bit (the y fluxes of equal states are exactly 0)."""
+    kw = dict(box_width=0.01, bed_height=0.01, cells_per_diameter=2, settle_time=0.005, t_end=0.03,
+              save_every=0.01, surface_perturbation=0.2, cfl=0.15)
+    b2, b3 = PackingBed(dim=2, **kw), PackingBed(dim=3, **kw)
+    d2 = b2.discretisation()
+    g3 = b3.grid()
+    rho3 = np.broadcast_to(b2.initial_density()[:, None, :], g3.shape)
+    from bsrflow.numerics.packing_nd import EulerianPackingND
+    d3 = EulerianPackingND(b3.law(), g3, b3.motion(), b3.gravity, rho3, cfl=0.15)
+    saves = save_schedule(0.0, kw["t_end"], kw["save_every"])
+    t2, u2, r2, _ = run_packing_nd(d2, kw["t_end"], saves)
+    t3, u3, r3, _ = run_packing_nd(d3, kw["t_end"], saves)
+    for j in range(g3.shape[1]):
+        np.testing.assert_array_equal(r3[:, :, j, :], r2)
+        np.testing.assert_array_equal(u3[:, 2, :, j, :], u2[:, 1])
+        np.testing.assert_array_equal(u3[:, 0, :, j, :], u2[:, 0])
+    assert np.max(np.abs(u3[:, 1])) == 0.0 and np.ptp(u2[:, 1]) > 0.01
+
+
+def test_stiffness_option_of_the_nd_law():
+    """The n-D law's stiffness factor scales loading and unloading as the 1-D law's; from_1d keeps
+    it (so the embedding of a reduced-stiffness column is the same arithmetic); the bed's
+    suggested factor gives the asked impact Mach number and takes fewer steps."""
+    law1 = PackingLaw(1.366e7, 0.88, 0.022, 1200.0, stiffness_factor=0.01)
+    nd = PackingLawND.from_1d(law1)
+    assert nd.k1 == law1.k1 and nd.k2 == law1.k2 and nd.stiffness_factor == 0.01
+    assert nd.wave_speed() == law1.wave_speed()
+    with pytest.raises(ValueError, match="stiffness_factor"):
+        PackingLawND(1.0, 0.9, 0.005, 700.0, stiffness_factor=1.5)
+    bed = PackingBed(dim=2, box_width=0.01, bed_height=0.01, cells_per_diameter=2, settle_time=0.005,
+                     t_end=0.02, stiffness=5e6)
+    phi = bed.suggest_stiffness_factor(0.01)
+    assert 0.0 < phi < 1.0
+    reduced = bed.with_(stiffness_factor=phi)
+    assert reduced.impact_mach() == pytest.approx(0.01, rel=1e-12)
+    assert reduced.law().k1 == pytest.approx(phi * bed.law().k1, rel=1e-15)
+    full_steps, reduced_steps = [], []
+    for s, steps in ((bed, full_steps), (reduced, reduced_steps)):
+        disc = s.discretisation()
+        disc.advance(0.0, s.t_end)
+        steps.append(disc.steps)
+    # Δt ∝ 1/c ∝ 1/√φ (the velocity term of the CFL bound is small against c)
+    assert full_steps[0] / reduced_steps[0] == pytest.approx(phi ** -0.5, rel=0.05)
