@@ -4,8 +4,7 @@
 
 The default column (d = 2.2 cm, 20 spheres, a/d = 0.75, one tap at 0.4 s) from rest to t = 2 s:
 each formulation at the true contact stiffness and with the reduced-stiffness option
-(``suggest_stiffness_factor`` at impact Mach number 0.01; the Eulerian formulation refuses it,
-which is recorded), beside the package's DEM of the same
+(``suggest_stiffness_factor`` at impact Mach number 0.01), beside the package's DEM of the same
 column, measured in the same run (median of ``--repeats`` wall times after compilation, one
 core).  The result is added under the key ``"packing_column_2s"`` to the JSON file (which
 ``bench/bench_step.py`` writes first in ``make bench``); other keys are kept.  Wall times are of
@@ -50,11 +49,6 @@ def main(argv=None):
     print(f"DEM: {dem_wall:.3f} s (median of {args.repeats})", flush=True)
     for form in ("eulerian", "lagrangian"):
         for factor in (1.0, phi):
-            if form == "eulerian" and factor != 1.0:
-                rows.append({"formulation": form, "stiffness_factor": factor, "refused": "the eulerian formulation "
-                             "refuses a reduced stiffness (its landing bounce grows with it; docs/model.md)"})
-                print(f"packing {form:10s} stiffness factor {factor:.3g}: refused by the formulation", flush=True)
-                continue
             s = base.with_(formulation=form, stiffness_factor=factor)
             wall, walls, run = _median_wall(lambda: run_bsr_column(s), args.repeats)
             rows.append({"formulation": form, "stiffness_factor": factor, "wall_s": wall, "walls_s": walls,

@@ -218,10 +218,11 @@ def add_parser(sub):
                            "(default both, comma-separated)")
             p.add_argument("--cases", default=None, help="packing only: comma-separated case names (default all)")
             p.add_argument("--stiffness-factor", default=None,
-                           help="packing, lagrangian formulation only: contact stiffness K times this factor in (0, 1] (default 1), "
+                           help="packing only: contact stiffness K times this factor in (0, 1] (default 1), "
                            "or 'auto': per case the factor of impact Mach number 0.01 "
                            "(bsrflow.physics.column.suggest_stiffness_factor; documented cost: top maximum "
-                           "within 1.5 %%, mass-centre RMS within 0.25 d of the true stiffness's)")
+                           "within 1.5 %%, mass-centre RMS within 0.25 d of the true stiffness's (lagrangian), "
+                           "1 %%, 1.2 d (eulerian))")
         p.add_argument("--diameter", type=float, default=None, help="sphere diameter d [m] (default 0.022)")
         p.add_argument("--ppd", type=int, default=None, help="grid points per diameter (default 10)")
         p.set_defaults(func=_main)
@@ -245,14 +246,14 @@ def _packing_main(args) -> int:
     if args.ppd is not None:
         kw["points_per_diameter"] = args.ppd
     auto = args.stiffness_factor == "auto"
-    if args.stiffness_factor is not None and "eulerian" in forms:
-        raise ValueError("--stiffness-factor: the eulerian formulation refuses a reduced stiffness (docs/model.md); "
-                         "add --formulation lagrangian")
     if args.stiffness_factor is not None and not auto:
         try:
             kw["stiffness_factor"] = float(args.stiffness_factor)
         except ValueError:
             raise ValueError(f"--stiffness-factor = {args.stiffness_factor!r} is not a number in (0, 1] or 'auto'") from None
+        if not (0.0 < kw["stiffness_factor"] <= 1.0):
+            raise ValueError(f"--stiffness-factor = {args.stiffness_factor!r} is outside the valid range (0, 1] "
+                             "(or 'auto')")
     if args.diameter is not None:
         raise ValueError("--diameter is not an option of --kernel packing (its cases set d = 5, 10, 22 mm)")
     if args.scheme != "seed":

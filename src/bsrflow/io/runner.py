@@ -358,15 +358,18 @@ def _run_packing_config(config: Config, out, *, resume=False, progress=None, log
 
 
 def stiffness_note(setup) -> str:
-    """One line on the reduced stiffness of a packing run and its documented cost."""
-    from ..physics.column import STIFFNESS_ERROR_BOUND, STIFFNESS_MACH, impact_mach
+    """One line on the reduced stiffness of a packing run and its documented cost (the bound of
+    its formulation, :data:`bsrflow.physics.column.STIFFNESS_ERROR_BOUNDS`)."""
+    from ..physics.column import STIFFNESS_ERROR_BOUNDS, STIFFNESS_MACH, impact_mach
     mach = impact_mach(setup)
-    b = STIFFNESS_ERROR_BOUND
+    b = STIFFNESS_ERROR_BOUNDS[setup.formulation]
     if mach <= STIFFNESS_MACH * (1 + 1e-9):
-        cost = (f"documented cost at M <= {STIFFNESS_MACH:g}: top maximum within {100 * b['top_max_rel']:g} % and "
-                f"mass-centre RMS within {b['mass_centre_rms_over_d']:g} d of the true stiffness's")
+        cost = (f"documented cost at M <= {STIFFNESS_MACH:g} ({setup.formulation}): top maximum within "
+                f"{100 * b['top_max_rel']:g} % and mass-centre RMS within {b['mass_centre_rms_over_d']:g} d of the "
+                "true stiffness's")
     else:
         cost = (f"above M = {STIFFNESS_MACH:g} the documented bound does not apply (measured at M = 0.03: up to "
-                "1.8 % in the top maximum and 0.46 d in the mass centre; bench/packing_stiffness.py)")
+                + ("1.8 % in the top maximum and 0.46 d in the mass centre" if setup.formulation == "lagrangian"
+                   else "1.2 % in the top maximum and 1.35 d in the mass centre") + "; bench/packing_stiffness.py)")
     return (f"reduced contact stiffness: K x {setup.stiffness_factor:.4g}, impact Mach number M = {mach:.3g}; "
             + cost)

@@ -102,12 +102,9 @@ class EulerianPacking(_Base):
 
     name = "eulerian"
     cfl_limit = 0.5
-    supports = frozenset({"cfl", "points_per_diameter", "save_every", "checkpoint_every"})
+    supports = frozenset({"cfl", "points_per_diameter", "stiffness_factor", "save_every", "checkpoint_every"})
 
     def __init__(self, law, grid, n_spheres, motion, gravity, points_per_diameter, cfl=0.4, rho0=None):
-        if law.stiffness_factor != 1.0:
-            raise ValueError(f"stiffness_factor = {law.stiffness_factor!r} is not supported by the eulerian "
-                             "formulation (valid: 1; docs/model.md)")
         super().__init__(law, grid, n_spheres, motion, gravity, points_per_diameter, cfl)
         n = grid.n_cells
         self.q = np.zeros((3, n + 2 * pk.NG))

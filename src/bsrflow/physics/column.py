@@ -132,10 +132,6 @@ class ColumnSetup:
                              "(valid: eulerian; the lagrangian formulation is the packing kernel's)")
         if not (np.isfinite(self.stiffness_factor) and 0.0 < self.stiffness_factor <= 1.0):
             raise ValueError(f"stiffness_factor = {self.stiffness_factor!r} is outside the valid range (0, 1]")
-        if self.kernel_name == "packing" and self.formulation == "eulerian" and self.stiffness_factor != 1.0:
-            raise ValueError(f"stiffness_factor = {self.stiffness_factor!r} is not supported by the eulerian "
-                             "formulation (valid: 1): its landed column bounces, more so at a reduced stiffness "
-                             "(docs/model.md); use formulation = lagrangian for the reduced stiffness")
         if self.kernel_name == "seed" and self.stiffness_factor != 1.0:
             raise ValueError("stiffness_factor is an option of the packing kernel only (the seed kernel's "
                              "stiffness is set by m0)")
@@ -254,12 +250,22 @@ class ColumnSetup:
 STIFFNESS_MACH = 0.01
 """Default impact Mach number of the reduced-stiffness option (:func:`suggest_stiffness_factor`)."""
 
-STIFFNESS_ERROR_BOUND = {"top_max_rel": 0.015, "mass_centre_rms_over_d": 0.25}
-"""The documented cost of the reduced stiffness at impact Mach number ≤ 0.01: the top maximum within
-1.5 % and the mass-centre RMS within 0.25 d of the true stiffness's.  Measured on the 14 cases of
-the packing comparison (Lagrangian, 10 points per diameter) by ``python bench/packing_stiffness.py``:
-at most 1.27 % and 0.20 d at M = 0.01, 0.40 % and 0.048 d at M = 0.003 (docs/model.md, tested).
-The Lagrangian formulation's: the Eulerian formulation refuses a reduced stiffness."""
+STIFFNESS_ERROR_BOUNDS = {
+    "lagrangian": {"top_max_rel": 0.015, "mass_centre_rms_over_d": 0.25},
+    "eulerian": {"top_max_rel": 0.01, "mass_centre_rms_over_d": 1.2},
+}
+"""The documented cost of the reduced stiffness at impact Mach number ≤ 0.01, per formulation: the
+top maximum and the mass-centre RMS against the true stiffness's run.  Measured on the 14 cases of
+the packing comparison (10 points per diameter) by ``python bench/packing_stiffness.py
+--formulation F`` (docs/model.md, "Stiffness"; tested): Lagrangian at most 1.27 % and 0.20 d at
+M = 0.01 (0.40 % and 0.048 d at M = 0.003); Eulerian at most 0.87 % and 1.08 d at M = 0.01 (the
+three-tap a/d = 1.0 case; 0.38 d in the other 13), 0.26 % and 0.154 d at M = 0.003
+(docs/results/packing_stiffness_eulerian_2026-12-01.json).  The Eulerian mass centre
+after a landing is sensitive (its landing bounce, docs/model.md): at the true stiffness it moves
+by as much between 20 and 40 cells per diameter, so its bound is wider."""
+
+STIFFNESS_ERROR_BOUND = STIFFNESS_ERROR_BOUNDS["lagrangian"]
+"""The Lagrangian formulation's bound (:data:`STIFFNESS_ERROR_BOUNDS`)."""
 
 
 def impact_speed_bound(setup: ColumnSetup) -> float:
