@@ -30,6 +30,7 @@ continues bit for bit.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import os
@@ -172,11 +173,10 @@ def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=
     from ..physics.packing_bed import PackingBed
     if isinstance(cfg.setup, PackingBed):
         return _run_packing_bed(cfg, out, resume=resume, progress=progress, log=log)
-    from ..numerics.solver import Scheme, SimulationError, save_schedule
+    from ..numerics.solver import Scheme, save_schedule
     from ..numerics.solver_nd import SimulationND
     from .netcdf import NetCDFWriterND, read_snapshots
     from .paths import check_output_file
-    from .vtk import VTKWriter
 
     out = check_output_file(out, "--out")
     setup = cfg.setup
@@ -214,14 +214,8 @@ def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=
         if os.path.exists(ck_file):
             os.remove(ck_file)                        # stale: belongs to an earlier run
         writer = NetCDFWriterND(out, grid, floor, attrs, expected_snapshots=save_times.size, n_tracers=n_tr)
-    observers = [writer]
-    vtk_writer = None
-    if vtk_stem:
-        os.makedirs(vtk_stem, exist_ok=True)
-        vtk_writer = VTKWriter(grid, os.path.join(vtk_stem, "layer"))
-        if resume:
-            vtk_writer.keep_before(t0)
-        observers.append(vtk_writer)
+    vtk_writer = _vtk_writer(vtk_stem, grid, t0 if resume else None)
+    observers = [writer] + ([vtk_writer] if vtk_writer else [])
     last = {"t": None}
 
     def on_checkpoint(t, u, rho, tr, steps):
@@ -230,24 +224,10 @@ def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=
         last["t"] = t
 
     wall = time.perf_counter()
-    try:
+    with _closing_on_failure(writer, out, ck_file, last):
         res = sim.run(u0, rho0, setup.t_end, t_start=t0, save_times=save_times, observers=observers,
                       progress=progress, extra_event_times=ck_times[ck_times > t0], on_event=on_checkpoint,
                       restart=resume, tracers=tracers)
-    except SimulationError as exc:
-        writer.close(f"stopped: {exc}")
-        raise
-    except KeyboardInterrupt as exc:
-        how = "by SIGTERM" if getattr(exc, "signal_name", "") == "SIGTERM" else "by Ctrl-C (SIGINT)"
-        writer.close(f"interrupted {how} after {writer.n} snapshots")
-        cont = (f"checkpoint {ck_file} at t = {last['t']:.6g} s: `--resume` continues from there"
-                if last["t"] is not None else "no checkpoint written yet: run again to start over")
-        exc.args = (f"interrupted {how}: {out} keeps {writer.n} snapshot(s); {cont}",)
-        exc.exit_code = 128 + int(getattr(exc, "signal_number", 2))
-        raise
-    except BaseException:
-        writer.close("failed")
-        raise
     writer.close("ok", steps=int(steps0 + res.steps))
     if os.path.exists(ck_file):
         os.remove(ck_file)                            # the run is complete
@@ -262,10 +242,9 @@ def _run_packing_bed(cfg: LayerConfig, out, *, resume=False, progress=None, log=
     the same n-D netCDF file (and VTK files), with checkpoints of its named fields (the
     conserved state, history included) and ``--resume`` bit for bit."""
     from ..numerics.controller import drive_events
-    from ..numerics.solver import SimulationError, save_schedule
+    from ..numerics.solver import save_schedule
     from .netcdf import NetCDFWriterND, read_snapshots
     from .paths import check_output_file
-    from .vtk import VTKWriter
 
     out = check_output_file(out, "--out")
     log = log or (lambda msg: None)
@@ -300,14 +279,8 @@ def _run_packing_bed(cfg: LayerConfig, out, *, resume=False, progress=None, log=
         if os.path.exists(ck_file):
             os.remove(ck_file)                        # stale: belongs to an earlier run
         writer = NetCDFWriterND(out, grid, floor, attrs, expected_snapshots=save_times.size)
-    observers = [writer]
-    vtk_writer = None
-    if vtk_stem:
-        os.makedirs(vtk_stem, exist_ok=True)
-        vtk_writer = VTKWriter(grid, os.path.join(vtk_stem, "layer"))
-        if resume:
-            vtk_writer.keep_before(t0)
-        observers.append(vtk_writer)
+    vtk_writer = _vtk_writer(vtk_stem, grid, t0 if resume else None)
+    observers = [writer] + ([vtk_writer] if vtk_writer else [])
     if setup.stiffness_factor < 1.0:
         log(f"reduced contact stiffness: K x {setup.stiffness_factor:.4g}, impact Mach number "
             f"M = {setup.impact_mach():.3g} (docs/model.md, \"Stiffness\")")
@@ -329,7 +302,7 @@ def _run_packing_bed(cfg: LayerConfig, out, *, resume=False, progress=None, log=
             progress(t)
 
     wall = time.perf_counter()
-    try:
+    with _closing_on_failure(writer, out, ck_file, last):
         log(f"compiling the {grid.dim}-D packing solver (once per process)")
         disc.advance(t0, t0)
         wall = time.perf_counter()
@@ -337,6 +310,36 @@ def _run_packing_bed(cfg: LayerConfig, out, *, resume=False, progress=None, log=
             progress(t0)
         drive_events(t0, float(setup.t_end), save_times, motion.jumps_between(t0, setup.t_end), ck_times[ck_times > t0],
                      advance=disc.advance, apply_jump=disc.apply_velocity_jump, save=save, on_event=on_checkpoint)
+    steps = int(disc.counters[0])
+    writer.close("ok", steps=steps)
+    if os.path.exists(ck_file):
+        os.remove(ck_file)                            # the run is complete
+    data, _ = read_snapshots(out)
+    return LayerOutcome(out, "ok", int(data["time"].size), float(setup.t_end), steps,
+                        wall0 + time.perf_counter() - wall, resumed, vtk_writer.pvd.as_posix() if vtk_writer else None)
+
+
+def _vtk_writer(vtk_stem, grid, keep_before):
+    """The VTK observer of a layer run (None without ``vtk_stem``); a resumed run keeps the
+    files before ``keep_before`` [s]."""
+    if not vtk_stem:
+        return None
+    from .vtk import VTKWriter
+    os.makedirs(vtk_stem, exist_ok=True)
+    w = VTKWriter(grid, os.path.join(vtk_stem, "layer"))
+    if keep_before is not None:
+        w.keep_before(keep_before)
+    return w
+
+
+@contextlib.contextmanager
+def _closing_on_failure(writer, out, ck_file, last):
+    """Close the netCDF ``writer`` with what stopped a layer run, then re-raise: a monitor's
+    message, an interrupt (Ctrl-C or SIGTERM: one line on what was kept and whether ``--resume``
+    can continue from the checkpoint at ``last["t"]``, exit code 128 + the signal), or "failed"."""
+    from ..numerics.solver import SimulationError
+    try:
+        yield
     except SimulationError as exc:
         writer.close(f"stopped: {exc}")
         raise
@@ -351,10 +354,3 @@ def _run_packing_bed(cfg: LayerConfig, out, *, resume=False, progress=None, log=
     except BaseException:
         writer.close("failed")
         raise
-    steps = int(disc.counters[0])
-    writer.close("ok", steps=steps)
-    if os.path.exists(ck_file):
-        os.remove(ck_file)                            # the run is complete
-    data, _ = read_snapshots(out)
-    return LayerOutcome(out, "ok", int(data["time"].size), float(setup.t_end), steps,
-                        wall0 + time.perf_counter() - wall, resumed, vtk_writer.pvd.as_posix() if vtk_writer else None)

@@ -159,13 +159,9 @@ class PackingBed:
     def initial_density(self, grid=None) -> np.ndarray:
         """ρ0 (*shape) [kg/m^n]: ρ_c in the cells below the bed's top (rounded to whole cells), 0
         above; at rest, unstressed (it settles during ``settle_time``)."""
+        from .scenarios_nd import undulated_surface_cells
         grid = grid or self.grid()
-        X = grid.mesh()
-        L = self.box_width
-        h = np.cos(2 * np.pi * X[0][..., 0] / L)
-        if self.dim == 3:
-            h = h * np.cos(2 * np.pi * X[1][..., 0] / L)
-        m = np.rint(self.bed_height * (1.0 + self.surface_perturbation * h) / self.dx).astype(int)
+        m = undulated_surface_cells(grid, self.bed_height, self.surface_perturbation, self.box_width)
         k = np.arange(grid.shape[-1])
         return np.where(k < m[..., None], self.phi_c * self.density, 0.0)
 

@@ -76,6 +76,16 @@ from .motion import HalfSineTaps, SinusoidalVibration
 __all__ = ["LayerSetup", "TappedLayer", "VibratedBox", "ScenarioRun", "run_scenario", "resting_profile"]
 
 
+def undulated_surface_cells(grid, height, perturbation, box_width) -> np.ndarray:
+    """Cells below the surface h = H (1 + δ cos(2πx/L) cos(2πy/L)) (no y factor in 2-D) of each
+    vertical column of ``grid``: round(h/Δx), an integer array of the horizontal shape."""
+    X = grid.mesh()
+    h = np.cos(2 * np.pi * X[0][..., 0] / box_width)
+    if grid.dim == 3:
+        h = h * np.cos(2 * np.pi * X[1][..., 0] / box_width)
+    return np.rint(height * (1.0 + perturbation * h) / grid.dx).astype(int)
+
+
 @functools.lru_cache(maxsize=64)
 def _layer_table(dim: int, W: int, dx: float) -> np.ndarray:
     """T_k = Σ_{o: o_z = k} w_o Θ_z(c_o; u = 0) for the unit-strength Walton-Braun kernel of
@@ -240,12 +250,7 @@ class LayerSetup:
     def initial_state(self, grid: GridND | None = None):
         """(u0 (n, *shape) [m/s], ρ0 (*shape) [kg/m^n]) of the module docstring."""
         grid = grid or self.grid()
-        X = grid.mesh()
-        L = self.box_width
-        h = np.cos(2 * np.pi * X[0][..., 0] / L)
-        if self.dim == 3:
-            h = h * np.cos(2 * np.pi * X[1][..., 0] / L)
-        m = np.rint(self.layer_height * (1.0 + self.surface_perturbation * h) / self.dx).astype(int)
+        m = undulated_surface_cells(grid, self.layer_height, self.surface_perturbation, self.box_width)
         lam = self.strength()
         rho = np.zeros(grid.shape)
         for mc in np.unique(m):
