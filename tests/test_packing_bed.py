@@ -108,6 +108,15 @@ def test_bad_packing_bed_configs_exit_2_with_one_line(text, field, tmp_path, cap
     assert not (tmp_path / "bad.nc").exists()
 
 
+def test_reduced_stiffness_is_reported(tmp_path, capsys):
+    cfg = tmp_path / "bed.toml"
+    cfg.write_text(CONFIG.replace("t_end = 0.12", "t_end = 0.01").replace("vtk = true", "vtk = false")
+                   .replace("[output]", "stiffness_factor = 0.25\n[output]"))
+    assert main(["run", str(cfg), "--out", str(tmp_path / "bed.nc")]) == 0
+    out = capsys.readouterr().out
+    assert "reduced contact stiffness: K x 0.25" in out and "impact Mach number" in out
+
+
 def test_bed_uniform_in_y_equals_the_2d_bed():
     """In 2-D the fields are a 3-D bed's uniform in y (per metre of depth): the 3-D run of that
     bed equals the 2-D run bit for bit (the y fluxes of equal states are exactly 0)."""
@@ -146,6 +155,10 @@ def test_stiffness_option_of_the_nd_law():
     reduced = bed.with_(stiffness_factor=phi)
     assert reduced.impact_mach() == pytest.approx(0.01, rel=1e-12)
     assert reduced.law().k1 == pytest.approx(phi * bed.law().k1, rel=1e-15)
+    # a bed at rest still meets itself at the free-fall speed of one diameter (the column's rule)
+    still = bed.with_(gamma=0.0)
+    assert still.impact_speed() == pytest.approx((2 * 9.81 * 0.005) ** 0.5, rel=1e-14)
+    assert still.with_(stiffness_factor=still.suggest_stiffness_factor(0.01)).impact_mach() == pytest.approx(0.01)
     full_steps, reduced_steps = [], []
     for s, steps in ((bed, full_steps), (reduced, reduced_steps)):
         disc = s.discretisation()

@@ -121,9 +121,14 @@ def _run_layer(args) -> int:
     if os.path.abspath(out) == os.path.abspath(args.config):
         raise ConfigError("--out", f"{out} is the config file itself; give another file name (e.g. .nc)")
     progress, close = _progress_bar(cfg.setup.t_end, not args.quiet and sys.stderr.isatty())
+
+    def log(msg):
+        if not args.quiet:
+            print(f"bsrflow run: {msg}", flush=True)
+
     try:
         with _sigterm_as_interrupt():
-            outcome = run_layer_config(cfg, out, resume=args.resume, progress=progress)
+            outcome = run_layer_config(cfg, out, resume=args.resume, progress=progress, log=log)
     finally:
         close()
     if not args.quiet:

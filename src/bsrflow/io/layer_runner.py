@@ -173,7 +173,7 @@ def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=
     from ..physics.packing_bed import PackingBed
     if isinstance(cfg.setup, PackingBed):
         return _run_packing_bed(cfg, out, resume=resume, progress=progress, log=log)
-    from ..numerics.solver import Scheme, save_schedule
+    from ..numerics.solver import Scheme
     from ..numerics.solver_nd import SimulationND
     from .netcdf import NetCDFWriterND, read_snapshots
     from .paths import check_output_file
@@ -186,21 +186,14 @@ def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=
                        vacuum_density=1e-4 * setup.bottom_density, top_tolerance=1e-3 * setup.bottom_density)
     motion = setup.model().motion
     floor = lambda t: motion.state(t)[0]  # noqa: E731
-    save_times = save_schedule(0.0, setup.t_end, setup.save_every)
-    ck_times = _checkpoint_times(save_times, cfg.checkpoint_every)
-    ck_file = checkpoint_path(out)
-    vtk_stem = os.path.splitext(out)[0] + "_vtk" if cfg.vtk else None
+    save_times, ck_times, ck_file, vtk_stem = _run_files(cfg, out)
     t0, steps0, resumed, wall0 = 0.0, 0, None, 0.0
     u0, rho0 = setup.initial_state(grid)
     attrs = {"config": cfg.text, "scheme": scheme.name, "dimension": grid.dim}
     tracers = None if cfg.tracers is None else np.array(cfg.tracers, dtype=float)
     n_tr = 0 if tracers is None else tracers.shape[0]
     if resume:
-        if not os.path.exists(ck_file):
-            raise ConfigError("--resume", f"no checkpoint {ck_file}; run without --resume")
-        ck = read_checkpoint(ck_file)
-        if ck.config != cfg.text:
-            raise ConfigError("--resume", f"{ck_file} was written by another config; run without --resume")
+        ck = _read_layer_checkpoint(ck_file, cfg)
         t0, steps0, resumed, wall0 = float(ck.t), int(ck.steps), float(ck.t), float(ck.wall_time)
         u0, rho0 = ck.u, ck.rho
         if tracers is not None:
@@ -242,7 +235,6 @@ def _run_packing_bed(cfg: LayerConfig, out, *, resume=False, progress=None, log=
     the same n-D netCDF file (and VTK files), with checkpoints of its named fields (the
     conserved state, history included) and ``--resume`` bit for bit."""
     from ..numerics.controller import drive_events
-    from ..numerics.solver import save_schedule
     from .netcdf import NetCDFWriterND, read_snapshots
     from .paths import check_output_file
 
@@ -253,19 +245,12 @@ def _run_packing_bed(cfg: LayerConfig, out, *, resume=False, progress=None, log=
     grid = disc.grid
     motion = disc.motion
     floor = lambda t: motion.state(t)[0]  # noqa: E731
-    save_times = save_schedule(0.0, setup.t_end, setup.save_every)
-    ck_times = _checkpoint_times(save_times, cfg.checkpoint_every)
-    ck_file = checkpoint_path(out)
-    vtk_stem = os.path.splitext(out)[0] + "_vtk" if cfg.vtk else None
+    save_times, ck_times, ck_file, vtk_stem = _run_files(cfg, out)
     t0, steps0, resumed, wall0 = 0.0, 0, None, 0.0
     attrs = {"config": cfg.text, "scheme": f"packing_{disc.name}", "kernel": "packing", "dimension": grid.dim,
              "scenario": f"packing_bed_{grid.dim}d"}
     if resume:
-        if not os.path.exists(ck_file):
-            raise ConfigError("--resume", f"no checkpoint {ck_file}; run without --resume")
-        ck = read_checkpoint(ck_file)
-        if ck.config != cfg.text:
-            raise ConfigError("--resume", f"{ck_file} was written by another config; run without --resume")
+        ck = _read_layer_checkpoint(ck_file, cfg)
         try:
             disc.load_fields(ck.fields or {})
         except (KeyError, ValueError) as exc:
@@ -283,7 +268,8 @@ def _run_packing_bed(cfg: LayerConfig, out, *, resume=False, progress=None, log=
     observers = [writer] + ([vtk_writer] if vtk_writer else [])
     if setup.stiffness_factor < 1.0:
         log(f"reduced contact stiffness: K x {setup.stiffness_factor:.4g}, impact Mach number "
-            f"M = {setup.impact_mach():.3g} (docs/model.md, \"Stiffness\")")
+            f"M = {setup.impact_mach():.3g}; its cost is measured on the 1-D column only (docs/model.md, "
+            "\"Stiffness\")")
     last = {"t": None}
 
     def save(t):
@@ -317,6 +303,25 @@ def _run_packing_bed(cfg: LayerConfig, out, *, resume=False, progress=None, log=
     data, _ = read_snapshots(out)
     return LayerOutcome(out, "ok", int(data["time"].size), float(setup.t_end), steps,
                         wall0 + time.perf_counter() - wall, resumed, vtk_writer.pvd.as_posix() if vtk_writer else None)
+
+
+def _run_files(cfg: LayerConfig, out):
+    """(save times [s], checkpoint times [s], checkpoint file, VTK folder or None) of a layer run."""
+    from ..numerics.solver import save_schedule
+    save_times = save_schedule(0.0, cfg.setup.t_end, cfg.setup.save_every)
+    vtk_stem = os.path.splitext(out)[0] + "_vtk" if cfg.vtk else None
+    return save_times, _checkpoint_times(save_times, cfg.checkpoint_every), checkpoint_path(out), vtk_stem
+
+
+def _read_layer_checkpoint(ck_file, cfg: LayerConfig) -> Checkpoint:
+    """The checkpoint a ``--resume`` continues from, refused in one line when it is missing or
+    was written by another config."""
+    if not os.path.exists(ck_file):
+        raise ConfigError("--resume", f"no checkpoint {ck_file}; run without --resume")
+    ck = read_checkpoint(ck_file)
+    if ck.config != cfg.text:
+        raise ConfigError("--resume", f"{ck_file} was written by another config; run without --resume")
+    return ck
 
 
 def _vtk_writer(vtk_stem, grid, keep_before):

@@ -390,7 +390,7 @@ class EulerianPackingND:
     [kg/m^n], at rest, δ_max = 0.  ``supports`` lists the options it takes."""
 
     name = "eulerian_nd"
-    supports = frozenset({"cfl", "save_every", "checkpoint_every"})
+    supports = frozenset({"cfl", "stiffness_factor", "save_every", "checkpoint_every"})
 
     def __init__(self, law, grid, motion, gravity, rho0, cfl=None):
         from .grid_nd import GridND

@@ -272,8 +272,9 @@ def impact_speed_bound(setup: ColumnSetup) -> float:
     """Upper bound on the speed [m/s] at which the column meets the floor or itself: 3aω (the
     energy bound's launch speed; the DEM's top sphere leaves at about 2.05 aω), at least the
     free-fall speed √(2 g d) of one diameter."""
+    from .packing import impact_speed
     launch = 3.0 * setup.amplitude * setup.omega if setup.n_taps > 0 else 0.0
-    return max(launch, math.sqrt(2.0 * setup.gravity * setup.diameter))
+    return impact_speed(launch, setup.gravity, setup.diameter)
 
 
 def impact_mach(setup: ColumnSetup) -> float:
@@ -287,11 +288,9 @@ def suggest_stiffness_factor(setup: ColumnSetup, mach: float = STIFFNESS_MACH) -
     """The reduced-stiffness option: the smallest factor φ in (0, 1] for which the impact Mach
     number stays at most ``mach``: φ = min(1, (v_impact / (mach c_true))²), c_true = d√(K2/m)
     at the true stiffness.  The explicit step then grows by 1/√φ."""
-    if not (np.isfinite(mach) and 0.0 < mach <= 1.0):
-        raise ValueError(f"mach = {mach!r} is outside the valid range (0, 1]")
+    from .packing import stiffness_factor_for_mach
     true = setup.with_(stiffness_factor=1.0)
-    c = true.packing_law().wave_speed()
-    return float(min(1.0, (impact_speed_bound(true) / (mach * c)) ** 2))
+    return stiffness_factor_for_mach(impact_speed_bound(true), true.packing_law().wave_speed(), mach)
 
 
 def initial_density(setup: ColumnSetup, x: np.ndarray) -> np.ndarray:

@@ -73,7 +73,8 @@ import numpy as np
 
 from .interaction import Interaction, constant_wave_speed
 
-__all__ = ["PackingLaw", "packing_force", "packing_wave_speed", "history_update",
+__all__ = ["PackingLaw", "packing_force", "packing_wave_speed", "history_update", "impact_speed",
+           "stiffness_factor_for_mach",
            "packing_force_numpy", "single_contact_restitution"]
 
 
@@ -97,6 +98,22 @@ def packing_wave_speed(rho, d, m, k2):
     if rho * d > m:
         return math.sqrt(k2 * m) / rho
     return 0.0
+
+
+def impact_speed(launch_speed, gravity, diameter) -> float:
+    """Upper bound [m/s] on the speed at which packed material meets the floor or itself: the
+    launch speed bound (3aω for a floor of speed amplitude aω, the energy bound), at least the
+    free-fall speed √(2 g d) of one diameter (the impact Mach number's speed, docs/model.md)."""
+    return max(launch_speed, math.sqrt(2.0 * gravity * diameter))
+
+
+def stiffness_factor_for_mach(impact, true_wave_speed, mach) -> float:
+    """The reduced-stiffness option's rule: the smallest factor φ in (0, 1] for which the impact
+    Mach number ``impact``/c stays at most ``mach`` in (0, 1]: φ = min(1, (v / (mach c_true))²),
+    since c ∝ √φ (docs/model.md, "Stiffness")."""
+    if not (math.isfinite(mach) and 0.0 < mach <= 1.0):
+        raise ValueError(f"mach = {mach!r} is outside the valid range (0, 1]")
+    return float(min(1.0, (impact / (mach * true_wave_speed)) ** 2))
 
 
 def packing_force_numpy(delta, dmax, k1, k2):

@@ -20,7 +20,7 @@ so a 2-D run is a 3-D run of a bed uniform in y.
 
 The stiffness option of the 1-D column (:func:`bsrflow.physics.column.suggest_stiffness_factor`)
 carries over: ``stiffness_factor`` φ in (0, 1] scales K (loading and unloading); the impact Mach
-number M = 3aω/c (c = d√(k2/(ρ_c d)), the packing's wave speed at the stiffness used) is
+number M = max(3aω, √(2gd))/c (c = d√(k2/(ρ_c d)), the packing's wave speed at the stiffness used) is
 :meth:`PackingBed.impact_mach`, and :meth:`PackingBed.suggest_stiffness_factor` gives the φ of a
 chosen M.  What it costs is measured in 1-D (docs/model.md, "Stiffness").
 
@@ -37,6 +37,7 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from .motion import SinusoidalVibration
+from .packing import impact_speed, stiffness_factor_for_mach
 
 __all__ = ["PackingBed"]
 
@@ -165,17 +166,19 @@ class PackingBed:
         k = np.arange(grid.shape[-1])
         return np.where(k < m[..., None], self.phi_c * self.density, 0.0)
 
+    def impact_speed(self) -> float:
+        """max(3aω, √(2gd)) [m/s] (:func:`bsrflow.physics.packing.impact_speed`, the column's)."""
+        return impact_speed(3.0 * self.floor_speed(), self.gravity, self.diameter)
+
     def impact_mach(self) -> float:
-        """M = 3aω / c, c = d√(k2/(ρ_c d)) the packing's wave speed at the stiffness used."""
-        return 3.0 * self.floor_speed() / self.law().wave_speed()
+        """M = v/c with v = :meth:`impact_speed`, c = d√(k2/(ρ_c d)) the packing's wave speed at
+        the stiffness used."""
+        return self.impact_speed() / self.law().wave_speed()
 
     def suggest_stiffness_factor(self, mach: float) -> float:
-        """φ = min(1, (3aω / (M c_true))²) for the impact Mach number ``mach`` in (0, 1] (the 1-D
-        column's rule, :func:`bsrflow.physics.column.suggest_stiffness_factor`)."""
-        if not (math.isfinite(mach) and 0.0 < mach <= 1.0):
-            raise ValueError(f"mach = {mach!r} is outside the valid range (0, 1]")
-        c = self.law(1.0).wave_speed()
-        return float(min(1.0, (3.0 * self.floor_speed() / (mach * c)) ** 2))
+        """The factor of impact Mach number ``mach`` in (0, 1] (the 1-D column's rule,
+        :func:`bsrflow.physics.packing.stiffness_factor_for_mach`)."""
+        return stiffness_factor_for_mach(self.impact_speed(), self.law(1.0).wave_speed(), mach)
 
     def discretisation(self):
         """The :class:`~bsrflow.numerics.packing_nd.EulerianPackingND` of this bed at t = 0."""
