@@ -15,11 +15,13 @@ netCDF file (:class:`bsrflow.io.netcdf.NetCDFWriterND`), optionally VTK files fo
 
 ``kind = "packing_bed"`` (:class:`bsrflow.physics.packing_bed.PackingBed`) runs the n-D packing
 continuum (:class:`bsrflow.numerics.packing_nd.EulerianPackingND`) into the same files; its
-checkpoint holds the discretisation's named fields (history included); it takes no tracers.
+checkpoint holds the discretisation's named fields (history included).
 
 Tracers (optional) are moved with the interpolated velocity by the scheme's tracer integrator
-(:meth:`bsrflow.numerics.solver_nd.SimulationND.run`) and written as ``tracer_x`` (``tracer_y``),
-``tracer_z`` (lab frame) to the netCDF file; checkpoints carry them.
+(:meth:`bsrflow.numerics.solver_nd.SimulationND.run`; for the packing bed the fields' SSP-RK3
+stages with the mass-weighted interpolation of :func:`bsrflow.numerics.packing_nd.tracer_velocity`)
+and written as ``tracer_x`` (``tracer_y``), ``tracer_z`` (lab frame) to the netCDF file;
+checkpoints carry them.
 
 Every key is checked before the run: an unknown table or key, or a value outside its range,
 is one line ``layer.<key>: <problem>`` (exit code 2).  A checkpoint ``<out>.ckpt`` holds the
@@ -106,9 +108,6 @@ def load_layer_config(path) -> LayerConfig:
     if ck is not None:
         if isinstance(ck, bool) or not isinstance(ck, (int, float)) or not (math.isfinite(ck) and ck >= 0.0):
             raise ConfigError("output.checkpoint_every", f"{ck!r} is outside the valid range [0, inf) s")
-    if kind == "packing_bed" and "tracers" in data:
-        raise ConfigError("tracers", "is not supported by kind = \"packing_bed\" (the n-D packing solver "
-                          "has no tracers yet); remove the [tracers] table")
     return LayerConfig(setup, vtk, None if ck is None else float(ck), raw.decode("utf-8"),
                        _tracer_positions(data.get("tracers"), setup))
 
@@ -241,7 +240,9 @@ def _run_packing_bed(cfg: LayerConfig, out, *, resume=False, progress=None, log=
     out = check_output_file(out, "--out")
     log = log or (lambda msg: None)
     setup = cfg.setup
-    disc = setup.discretisation()
+    tracers = None if cfg.tracers is None else np.array(cfg.tracers, dtype=float)
+    n_tr = 0 if tracers is None else tracers.shape[0]
+    disc = setup.discretisation(tracers)
     grid = disc.grid
     motion = disc.motion
     floor = lambda t: motion.state(t)[0]  # noqa: E731
@@ -255,15 +256,20 @@ def _run_packing_bed(cfg: LayerConfig, out, *, resume=False, progress=None, log=
             disc.load_fields(ck.fields or {})
         except (KeyError, ValueError) as exc:
             raise ConfigError("--resume", f"the checkpoint's state does not match the config: {exc}") from None
+        if tracers is not None:
+            if ck.tracers.shape != tracers.shape:
+                raise ConfigError("--resume", f"{ck_file} holds {ck.tracers.shape[0]} tracers, the config "
+                                  f"{tracers.shape[0]}; run without --resume")
+            disc.set_tracers(ck.tracers)
         t0, steps0, resumed, wall0 = float(ck.t), int(ck.steps), float(ck.t), float(ck.wall_time)
         disc.counters[0] = steps0
         disc.steps = steps0
-        writer = NetCDFWriterND.resume(out, t0, grid, floor, expected_snapshots=save_times.size)
+        writer = NetCDFWriterND.resume(out, t0, grid, floor, expected_snapshots=save_times.size, n_tracers=n_tr)
         save_times = save_times[save_times >= t0]
     else:
         if os.path.exists(ck_file):
             os.remove(ck_file)                        # stale: belongs to an earlier run
-        writer = NetCDFWriterND(out, grid, floor, attrs, expected_snapshots=save_times.size)
+        writer = NetCDFWriterND(out, grid, floor, attrs, expected_snapshots=save_times.size, n_tracers=n_tr)
     vtk_writer = _vtk_writer(vtk_stem, grid, t0 if resume else None)
     observers = [writer] + ([vtk_writer] if vtk_writer else [])
     if setup.stiffness_factor < 1.0:
@@ -274,13 +280,14 @@ def _run_packing_bed(cfg: LayerConfig, out, *, resume=False, progress=None, log=
 
     def save(t):
         u, rho = disc.observe()
+        tr = disc.tracer_positions() if n_tr else None
         for obs in observers:
-            obs(t, u, rho, None)
+            obs(t, u, rho, tr)
         if progress is not None:
             progress(t)
 
     def on_checkpoint(t):
-        write_checkpoint(ck_file, Checkpoint(t, np.zeros(0), np.zeros(0), np.zeros((0, grid.dim)), int(disc.counters[0]),
+        write_checkpoint(ck_file, Checkpoint(t, np.zeros(0), np.zeros(0), disc.tracer_positions(), int(disc.counters[0]),
                                              0, wall0 + time.perf_counter() - wall, writer.n, cfg.text,
                                              fields={k: v.copy() for k, v in disc.fields.items()}))
         last["t"] = t

@@ -314,6 +314,93 @@ def _speed_and_top(q, rho_tiny):
     return umax, near_top / total if total > 0.0 else 0.0, 0, -1
 
 
+@numba.njit(cache=True)
+def tracer_velocity(q, px, py, pz, lo, dx, rho_tiny, out):
+    """Velocity [m/s] at the point (px, py, pz) [m] (floor frame; py ignored in 2-D, NY = 1) into
+    ``out`` (3): the trilinear (bilinear in 2-D) interpolation of the momentum divided by that of
+    the density over the surrounding cell centres, u = Σ w ρu / Σ w ρ, so that empty cells do not
+    pull a tracer at the bed's edge towards rest; 0 where Σ w ρ ≤ ``rho_tiny``.  Periodic sides;
+    below the lowest and above the highest cell centres the floor's and the lid's mirror cells
+    (ρ even, u_z odd), so u_z is 0 at the floor.  NumPy twin:
+    :func:`bsrflow.numerics.packing_reference.tracer_velocity_numpy`."""
+    _, NX, NY, NZ = q.shape
+    sx = (px - lo[0]) / dx - 0.5
+    i0 = int(math.floor(sx))
+    fx = sx - i0
+    j0, fy, nb = 0, 0.0, 1
+    if NY > 1:
+        sy = (py - lo[1]) / dx - 0.5
+        j0 = int(math.floor(sy))
+        fy = sy - j0
+        nb = 2
+    sz = (pz - lo[2]) / dx - 0.5
+    k0 = int(math.floor(sz))
+    fz = sz - k0
+    wr = 0.0
+    wx = 0.0
+    wy = 0.0
+    wz = 0.0
+    for a in range(2):
+        wa = fx if a == 1 else 1.0 - fx
+        i = ((i0 + a) % NX + NX) % NX
+        for b in range(nb):
+            wb = 1.0 if nb == 1 else (fy if b == 1 else 1.0 - fy)
+            j = ((j0 + b) % NY + NY) % NY
+            for c in range(2):
+                wc = fz if c == 1 else 1.0 - fz
+                k = k0 + c
+                sgn = 1.0
+                if k < 0:
+                    k = -1 - k
+                    sgn = -1.0
+                elif k >= NZ:
+                    k = 2 * NZ - 1 - k
+                    sgn = -1.0
+                k = min(max(k, 0), NZ - 1)
+                w = wa * wb * wc
+                wr += w * q[RHO, i, j, k]
+                wx += w * q[MX, i, j, k]
+                wy += w * q[MY, i, j, k]
+                wz += w * sgn * q[MZ, i, j, k]
+    if wr > rho_tiny:
+        out[0], out[1], out[2] = wx / wr, wy / wr, wz / wr
+    else:
+        out[0], out[1], out[2] = 0.0, 0.0, 0.0
+
+
+@numba.njit(cache=True)
+def _tracer_stage(q, tr, vt, st, dt, lo, top, dx, rho_tiny):
+    """Stage ``st`` (0, 1, 2) of the tracers' SSP-RK3 (the fields' tableau): the velocity vt[st]
+    at the stage position x0, x0 + Δt v0, x0 + Δt (v0 + v1)/4 on the stage state q."""
+    buf = np.zeros(3)
+    for n in range(tr.shape[0]):
+        p = np.empty(3)
+        for cc in range(3):
+            p[cc] = tr[n, cc]
+            if st == 1:
+                p[cc] += dt * vt[0, n, cc]
+            elif st == 2:
+                p[cc] += 0.25 * dt * (vt[0, n, cc] + vt[1, n, cc])
+        p[2] = min(max(p[2], lo[2]), top)
+        tracer_velocity(q, p[0], p[1], p[2], lo, dx, rho_tiny, buf)
+        for cc in range(3):
+            vt[st, n, cc] = buf[cc]
+
+
+@numba.njit(cache=True)
+def _tracer_combine(tr, vt, dt, lo, box, top, has_y):
+    """x += Δt (v0 + v1 + 4 v2)/6; periodic sides wrapped, the height kept in [floor, lid]."""
+    for n in range(tr.shape[0]):
+        for cc in range(3):
+            tr[n, cc] += dt * ((vt[0, n, cc] + vt[1, n, cc]) / 6.0 + (2.0 / 3.0) * vt[2, n, cc])
+        for cc in range(2):
+            if cc == 1 and not has_y:
+                continue
+            rel = tr[n, cc] - lo[cc]
+            tr[n, cc] = lo[cc] + (rel - box[cc] * math.floor(rel / box[cc]))
+        tr[n, 2] = min(max(tr[n, 2], lo[2]), top)
+
+
 @numba.njit(cache=True, parallel=True)
 def _stage1(qf, q1f, i1f, dqf, dt):
     """k1 = Δt L(q), q1 = q + k1 (flat arrays)."""
@@ -339,12 +426,16 @@ def _stage3(qf, i1f, i2f, dqf, dt):
 
 @numba.njit(cache=True)
 def fv_advance_nd(q, t, t_stop, dim, dx, cfl, c_bound, d, m, k1, k2, rho_tiny, rho_floor, top_fraction, fn, params,
-                  gravity, counters):
+                  gravity, counters, tracers, lo, box):
     """SSP-RK3 steps (increment form, as the 1-D ``fv_advance``) from t to exactly t_stop.
     counters: [steps, status, where]; status 1 negative density, 2 non-finite, 3 more than
     ``top_fraction`` of the mass in the top 6 layers of cells (the 1-D column stops on any
-    material there; see :attr:`EulerianPackingND.top_fraction`)."""
+    material there; see :attr:`EulerianPackingND.top_fraction`).  tracers (n, 3) [m] (floor
+    frame; n = 0 for none) move with the interpolated velocity (:func:`tracer_velocity`) by the
+    same SSP-RK3 stages; lo (3) the grid's lower corner, box (3) its extents [m]."""
     _, NX, NY, NZ = q.shape
+    vt = np.zeros((3, tracers.shape[0], 3))
+    top = lo[2] + box[2]
     q1 = q.copy()
     q2 = q.copy()
     dq = np.zeros_like(q)
@@ -365,12 +456,21 @@ def fv_advance_nd(q, t, t_stop, dim, dx, cfl, c_bound, d, m, k1, k2, rho_tiny, r
         if t + dt >= t_stop:
             dt = t_stop - t
             last = True
+        has_tr = tracers.shape[0] > 0
+        if has_tr:
+            _tracer_stage(q, tracers, vt, 0, dt, lo, top, dx, rho_tiny)
         fv_rhs_nd(q, dq, dim, dx, -gravity - fn(t, params)[2], d, m, k1, k2, c_bound, rho_tiny)
         _stage1(qf, q1f, i1f, dqf, dt)
+        if has_tr:
+            _tracer_stage(q1, tracers, vt, 1, dt, lo, top, dx, rho_tiny)
         fv_rhs_nd(q1, dq, dim, dx, -gravity - fn(t + dt, params)[2], d, m, k1, k2, c_bound, rho_tiny)
         _stage2(qf, q2f, i1f, i2f, dqf, dt)
+        if has_tr:
+            _tracer_stage(q2, tracers, vt, 2, dt, lo, top, dx, rho_tiny)
         fv_rhs_nd(q2, dq, dim, dx, -gravity - fn(t + 0.5 * dt, params)[2], d, m, k1, k2, c_bound, rho_tiny)
         _stage3(qf, i1f, i2f, dqf, dt)
+        if has_tr:
+            _tracer_combine(tracers, vt, dt, lo, box, top, dim == 3)
         fv_post_step_nd(q, d, m, rho_floor)
         t = t_stop if last else t + dt
         counters[0] += 1
@@ -387,12 +487,14 @@ class EulerianPackingND:
 
     law : :class:`PackingLawND`; motion : an applied motion (:mod:`bsrflow.physics.motion`);
     gravity g [m/s²]; cfl in (0, 0.5/n] (default 0.4/n); rho0 : initial density (*grid.shape)
-    [kg/m^n], at rest, δ_max = 0.  ``supports`` lists the options it takes."""
+    [kg/m^n], at rest, δ_max = 0; tracers : None or (n_tr, dim) positions [m] (floor frame,
+    inside the grid; dim >= 2), moved with the interpolated velocity (:func:`tracer_velocity`)
+    by the fields' SSP-RK3 stages.  ``supports`` lists the options it takes."""
 
     name = "eulerian_nd"
-    supports = frozenset({"cfl", "stiffness_factor", "save_every", "checkpoint_every"})
+    supports = frozenset({"cfl", "stiffness_factor", "save_every", "checkpoint_every", "tracers"})
 
-    def __init__(self, law, grid, motion, gravity, rho0, cfl=None):
+    def __init__(self, law, grid, motion, gravity, rho0, cfl=None, tracers=None):
         from .grid_nd import GridND
         if not isinstance(grid, GridND) or grid.bc_lower != "floor" or grid.bc_upper != "vacuum" or \
                 any(b != "periodic" for b in grid.bc_horizontal):
@@ -428,6 +530,18 @@ class EulerianPackingND:
         cell; one-off run); that trace
         may reach the lid at the domain top (mirror ghosts: no mass leaves), more stops the run."""
         self.c_bound = law.wave_speed_bound()       # the interaction's own bound
+        lower, upper = np.asarray(grid.lower, float), np.asarray(grid.upper, float)
+        if self.dim == 2:
+            lower, upper = np.array([lower[0], 0.0, lower[1]]), np.array([upper[0], 1.0, upper[1]])
+        elif self.dim == 1:
+            lower, upper = np.array([0.0, 0.0, lower[0]]), np.array([1.0, 1.0, upper[0]])
+        self._lo = np.ascontiguousarray(lower)
+        self._box = np.ascontiguousarray(upper - lower)
+        self.tracers = np.zeros((0, 3))
+        """Tracer positions [m] (floor frame) in the internal layout (n_tr, 3): (x, y, z), y = 0
+        in 2-D; :meth:`tracer_positions` gives the user layout."""
+        if tracers is not None:
+            self.set_tracers(tracers)
         self.counters = np.zeros(4, dtype=np.int64)
         self.steps = 0
         self._fn = motion.fn
@@ -457,6 +571,34 @@ class EulerianPackingND:
             if a.shape != v.shape:
                 raise ValueError(f"field {k}: shape {a.shape}, expected {v.shape}")
             v[...] = a
+
+    def set_tracers(self, positions):
+        """Set the tracers from user-layout positions (n_tr, dim) [m] (floor frame): ValueError
+        (one line) for a column (dim = 1: its tracers are the mass coordinates of the 1-D
+        formulations), a wrong shape or a point outside the grid."""
+        if self.dim == 1:
+            raise ValueError("tracers: the n-D packing solver moves tracers in 2-D / 3-D only; a column's "
+                             "tracers are its mass coordinates (bsrflow.numerics.packing)")
+        p = np.asarray(positions, dtype=float)
+        if p.ndim != 2 or p.shape[1] != self.dim or not np.all(np.isfinite(p)):
+            raise ValueError(f"tracers: need finite positions of shape (n, {self.dim}) [m], got {p.shape}")
+        lo, hi = np.asarray(self.grid.lower, float), np.asarray(self.grid.upper, float)
+        for k, pt in enumerate(p):
+            if np.any(pt < lo) or np.any(pt > hi):
+                raise ValueError(f"tracers: tracer {k} at {pt.tolist()} m is outside the grid "
+                                 f"[{lo.tolist()}, {hi.tolist()}] m")
+        tr = np.zeros((p.shape[0], 3))
+        if self.dim == 2:
+            tr[:, 0], tr[:, 2] = p[:, 0], p[:, 1]
+        else:
+            tr[:] = p
+        self.tracers = tr
+
+    def tracer_positions(self) -> np.ndarray:
+        """Tracer positions (n_tr, dim) [m] in the user layout ((x, z) in 2-D), floor frame."""
+        if self.dim == 2:
+            return self.tracers[:, [0, 2]].copy()
+        return self.tracers.copy()
 
     def apply_velocity_jump(self, dv):
         if self.dim == 1:
@@ -495,7 +637,7 @@ class EulerianPackingND:
             return t
         t = fv_advance_nd(self.q, float(t), float(t_stop), self.dim, self.grid.dx, self.cfl, self.c_bound,
                           law.diameter, law.m_eff, law.k1, law.k2, self.rho_tiny, self.rho_floor, self.top_fraction,
-                          self._fn, self._params, self.gravity, self.counters)
+                          self._fn, self._params, self.gravity, self.counters, self.tracers, self._lo, self._box)
         self.steps = int(self.counters[0])
         status = int(self.counters[1])
         if status == 3:

@@ -24,7 +24,8 @@ import numpy as np
 __all__ = ["RHO", "MOM", "HIST", "NG", "contact_force", "history_update", "wave_speed", "minmod",
            "hlle_flux", "fill_ghosts", "fv_rhs", "fv_post_step", "fv_time_step", "active_top",
            "ssp_rk3_step", "bond_lengths", "lagrangian_forces", "lagrangian_accelerations",
-           "lagrangian_history", "verlet_step", "hlle_waves", "hlle_combine", "fv_rhs_nd", "no_tension"]
+           "lagrangian_history", "verlet_step", "hlle_waves", "hlle_combine", "fv_rhs_nd", "no_tension",
+           "tracer_velocity_numpy"]
 
 RHO, MOM, HIST = 0, 1, 2
 NG = 2
@@ -313,3 +314,42 @@ def verlet_step(x, v, hist, t, dt, accel, mu, ppd, d, k1, k2):
     f1 = lagrangian_forces(x_new, hist, ppd, d, k1, k2)
     v_new = v_half + 0.5 * dt * lagrangian_accelerations(f1, mu, accel(t + dt))
     return x_new, v_new, lagrangian_history(x_new, hist, ppd, d)
+
+
+# ------------------------------------------------------------------------------------------------
+# n-D tracers (numerics/packing_nd.py, tracer_velocity)
+# ------------------------------------------------------------------------------------------------
+def tracer_velocity_numpy(q, points, lo, dx, rho_tiny):
+    """Velocities (n, 3) [m/s] at ``points`` (n, 3) [m] on the n-D state q (5, NX, NY, NZ): the
+    interpolated momentum over the interpolated density, u = Σ w ρu / Σ w ρ, with the trilinear
+    weights w of the surrounding cell centres (bilinear when NY = 1), periodic sides, mirror cells
+    (ρ even, ρu_z odd) below the lowest and above the highest cell centre; 0 where Σ w ρ ≤
+    ``rho_tiny``."""
+    _, NX, NY, NZ = q.shape
+    pts = np.asarray(points, dtype=float)
+    lo = np.asarray(lo, dtype=float)
+    s = (pts - lo) / dx - 0.5
+    base = np.floor(s).astype(int)
+    frac = s - base
+    if NY == 1:
+        base[:, 1] = 0
+        frac[:, 1] = 0.0
+    num = np.zeros((pts.shape[0], 3))
+    den = np.zeros(pts.shape[0])
+    for a in (0, 1):
+        for b in ((0, 1) if NY > 1 else (0,)):
+            for c in (0, 1):
+                w = ((frac[:, 0] if a else 1 - frac[:, 0]) * ((frac[:, 1] if b else 1 - frac[:, 1]) if NY > 1 else 1.0)
+                     * (frac[:, 2] if c else 1 - frac[:, 2]))
+                i = np.mod(base[:, 0] + a, NX)
+                j = np.mod(base[:, 1] + b, NY)
+                k = base[:, 2] + c
+                sgn = np.where((k < 0) | (k >= NZ), -1.0, 1.0)
+                k = np.where(k < 0, -1 - k, np.where(k >= NZ, 2 * NZ - 1 - k, k))
+                k = np.clip(k, 0, NZ - 1)
+                den += w * q[0, i, j, k]
+                num[:, 0] += w * q[1, i, j, k]
+                num[:, 1] += w * q[2, i, j, k]
+                num[:, 2] += w * sgn * q[3, i, j, k]
+    safe = np.where(den > rho_tiny, den, 1.0)
+    return np.where((den > rho_tiny)[:, None], num / safe[:, None], 0.0)

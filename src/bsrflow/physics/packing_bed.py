@@ -180,12 +180,13 @@ class PackingBed:
         :func:`bsrflow.physics.packing.stiffness_factor_for_mach`)."""
         return stiffness_factor_for_mach(self.impact_speed(), self.law(1.0).wave_speed(), mach)
 
-    def discretisation(self):
-        """The :class:`~bsrflow.numerics.packing_nd.EulerianPackingND` of this bed at t = 0."""
+    def discretisation(self, tracers=None):
+        """The :class:`~bsrflow.numerics.packing_nd.EulerianPackingND` of this bed at t = 0, with
+        ``tracers`` (None or (n, dim) positions [m], floor frame) moved by the scheme."""
         from ..numerics.packing_nd import EulerianPackingND
         grid = self.grid()
         return EulerianPackingND(self.law(), grid, self.motion(), self.gravity, self.initial_density(grid),
-                                 cfl=self.cfl)
+                                 cfl=self.cfl, tracers=tracers)
 
     def mass(self) -> float:
         """Mass of the bed [kg] (3-D) or per metre of depth [kg/m] (2-D)."""
