@@ -199,6 +199,17 @@ def interp_velocity(up, x, y, z, lo, dx, Gx, Gy, Gz, has_y, out):
 
 
 @numba.njit(cache=True, parallel=True)
+def _density_floor(rho, rho_floor):
+    """Set |ρ| < ``rho_floor`` to 0 (vacuum debris; ``SimulationND``'s ``density_floor``)."""
+    NX, NY, NZ = rho.shape
+    for i in prange(NX):
+        for j in range(NY):
+            for k in range(NZ):
+                if abs(rho[i, j, k]) < rho_floor:
+                    rho[i, j, k] = 0.0
+
+
+@numba.njit(cache=True, parallel=True)
 def make_positive_columns(rho):
     """Mass-conserving positivity fix, column by column (the 1-D solver's
     ``compiled.make_positive`` along z): in every vertical column each cell with ρ < 0 is set
@@ -399,7 +410,8 @@ def make_core_nd(kernel_fn, motion_fn, wave_speed_fn, positivity=False, tracers=
     @numba.njit(cache=False)
     def advance(u, rho, t, t_end, dt_fixed, cfl, wsp, A, b, c, filt, dims, sx, sy, sz, gx, gy, gz,
                 kx, ky, kz, prz, floor, Gx, Gy, Gz, dx, dA, dB, hc, hwA, hwB, kp, grav, mp, dt_min,
-                rho_max, max_steps, top_tol, top_layers, vac_thr, tracers, tracer_mode, lo, box, periodic):
+                rho_max, max_steps, top_tol, top_layers, vac_thr, rho_floor, tracers, tracer_mode, lo, box,
+                periodic):
         """Advance (u, ρ) in place from t to t_end.
 
         dt: ``dt_fixed`` if > 0, else cfl Δx / (max_j Σ_a |u_a| + sqrt(n κ max ρ)) (the n-D
@@ -408,6 +420,8 @@ def make_core_nd(kernel_fn, motion_fn, wave_speed_fn, positivity=False, tracers=
         1 (5.7), 2 tensor average.  vac_thr > 0: velocity extension into vacuum after every
         step (before the average), as the 1-D solver.  positivity: the column-wise
         mass-conserving fix :func:`make_positive_columns` after every step (after the average).
+        rho_floor > 0: |ρ| below it is set to 0 at the end of every step (after the positivity
+        fix: vacuum debris, as the 1-D solver's ``density_floor``).
         Returns (t, steps, status, where_flat_index, dt_last).
         """
         NX, NY, NZ = rho.shape
@@ -493,6 +507,8 @@ def make_core_nd(kernel_fn, motion_fn, wave_speed_fn, positivity=False, tracers=
                 moving_average(u, rho, up, rp, Gx, Gy, Gz, has_y, floor, dims, filt)
             if POSITIVITY:
                 make_positive_columns(rho)
+            if rho_floor > 0.0:
+                _density_floor(rho, rho_floor)
             steps += 1
             _row_stats(u, rho, smax, rmax, bad)
             for i in range(NX):

@@ -175,10 +175,15 @@ class SimulationND:
         is replaced by that of the nearest material cell of their vertical column (0: off), the
         1-D solver's velocity extension applied column by column
         (``compiled_nd.extend_velocity``).
+    density_floor : at the end of every step (after the positivity fix) densities with |ρ|
+        below this [kg/m^n] are set to 0 (0: off, the default; below ``vacuum_density`` when
+        that is set): the vacuum debris the moving average spreads upwards one cell per step,
+        as the 1-D solver's ``density_floor`` (on a column that option itself).
     """
 
     def __init__(self, model: BSRModelND, grid: GridND, scheme: Scheme | None = None, *, average="na",
-                 rho_max=0.0, dt_min=1e-12, top_tolerance=0.0, max_steps=50_000_000, vacuum_density=0.0):
+                 rho_max=0.0, dt_min=1e-12, top_tolerance=0.0, max_steps=50_000_000, vacuum_density=0.0,
+                 density_floor=0.0):
         if not isinstance(model, BSRModelND):
             raise ValueError(f"model = {model!r} must be a BSRModelND")
         if not isinstance(grid, GridND):
@@ -191,6 +196,11 @@ class SimulationND:
                 raise ValueError(f"{name} = {v!r} is outside the valid range [0, inf)")
         if int(max_steps) != max_steps or max_steps < 1:
             raise ValueError(f"max_steps = {max_steps!r} is outside the valid range: integers >= 1")
+        top = vacuum_density if vacuum_density > 0 else np.inf
+        if not (np.isfinite(density_floor) and 0 <= density_floor < top):
+            rng = f"[0, vacuum_density = {vacuum_density!r})" if vacuum_density > 0 else "[0, inf)"
+            raise ValueError(f"density_floor = {density_floor!r} is outside the valid range {rng} kg/m^n")
+        self.density_floor = float(density_floor)
         self.model = model
         self.grid = grid
         self.scheme = scheme or Scheme.preset("seed")
@@ -202,7 +212,8 @@ class SimulationND:
             self._line = Simulation(BSRModel(kernel=model.kernel.on_line(), motion=model.motion,
                                              gravity=model.gravity), grid.as_grid1d(), self.scheme,
                                     rho_max=rho_max, dt_min=dt_min, top_tolerance=top_tolerance,
-                                    max_steps=max_steps, vacuum_density=vacuum_density)
+                                    max_steps=max_steps, vacuum_density=vacuum_density,
+                                    density_floor=density_floor)
             self.W = self._line.W
             self.kappa = self._line.kappa
             return
@@ -306,7 +317,7 @@ class SimulationND:
             self.floor, Gx, Gy, Gz, g.dx, self.dA, self.dB, self.hc, self.hw, self.hwB, self.model.kernel.params,
             self.model.gravity, self.model.motion.params, self.dt_min, self.rho_max,
             int(max_steps or self.max_steps), self.top_tolerance, top_layers, self.vacuum_density,
-            tr, mode, lo3, box, periodic)
+            self.density_floor, tr, mode, lo3, box, periodic)
 
     def _padded(self, ui, ri):
         Gx, Gy, Gz = self.G
@@ -655,6 +666,8 @@ class ReferenceND:
             un = self.extend_velocity(un, rn, self.sim.vacuum_density)
         if self.sim.scheme.filter:
             un, rn = self.moving_average(un, rn, self.sim.average)
+        if self.sim.density_floor > 0:
+            rn = np.where(np.abs(rn) < self.sim.density_floor, 0.0, rn)
         return un, rn
 
 
