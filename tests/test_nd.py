@@ -176,20 +176,28 @@ def test_steps_match_numpy_reference(shape, bcs, average, vac, rng):
     grid = GridND(shape, DX, **bcs)
     sim = SimulationND(_model(), grid, Scheme(stepper="kutta3", filter=True, dt=2e-4), average=average,
                        vacuum_density=vac)
-    ref = ReferenceND(sim)
     u, rho = _random_state(grid, rng)
+    (uc, rc), (ur, rr) = _three_steps(sim, u, rho)
+    assert _rel(uc, ur) < 1e-12 and _rel(rc, rr) < 1e-12
+
+
+def _three_steps(sim, u, rho, dt=2e-4, t0=0.001):
+    """Three steps of Δt from t0 by the compiled loop and by the NumPy reference step:
+    ((u, ρ) compiled, (u, ρ) reference) in the user layout."""
+    grid = sim.grid
+    ref = ReferenceND(sim)
     ur, rr = u.copy(), rho.copy()
-    t = 0.001
+    t = t0
     for _ in range(3):
-        ur, rr = ref.step(ur, rr, t, 2e-4)
-        t += 2e-4
+        ur, rr = ref.step(ur, rr, t, dt)
+        t += dt
     ui, ri = to_internal(grid, u, rho)
     ui, ri = ui.copy(), ri.copy()
-    t1, steps, status, _, _ = sim.advance_internal(ui, ri, 0.001, 0.001 + 6e-4)
+    t1, steps, status, _, _ = sim.advance_internal(ui, ri, t0, t0 + 3 * dt)
     assert status == 0 and steps == 3
     uc = np.stack([ui[0][:, 0, :], ui[2][:, 0, :]]) if grid.dim == 2 else ui
     rc = ri[:, 0, :] if grid.dim == 2 else ri
-    assert _rel(uc, ur) < 1e-12 and _rel(rc, rr) < 1e-12
+    return (uc, rc), (ur, rr)
 
 
 @pytest.mark.parametrize("shape, bcs", GRIDS[:2])
@@ -199,28 +207,14 @@ def test_density_floor_matches_numpy_reference(shape, bcs, rng):
     grid = GridND(shape, DX, **bcs)
     floor = 1.0            # kg/m^n, against 200-1000 in the bulk: the thin top the average spreads
     sim = SimulationND(_model(), grid, Scheme(stepper="kutta3", filter=True, dt=2e-4), density_floor=floor)
-    ref = ReferenceND(sim)
     u, rho = _random_state(grid, rng)
-    ur, rr = u.copy(), rho.copy()
-    t = 0.001
-    for _ in range(3):
-        ur, rr = ref.step(ur, rr, t, 2e-4)
-        t += 2e-4
-    ui, ri = to_internal(grid, u, rho)
-    ui, ri = ui.copy(), ri.copy()
-    t1, steps, status, _, _ = sim.advance_internal(ui, ri, 0.001, 0.001 + 6e-4)
-    assert status == 0 and steps == 3
-    rc = ri[:, 0, :] if grid.dim == 2 else ri
-    assert _rel(rc, rr) < 1e-12
+    (uc, rc), (ur, rr) = _three_steps(sim, u, rho)
+    assert _rel(uc, ur) < 1e-12 and _rel(rc, rr) < 1e-12
     assert np.array_equal(rc == 0.0, rr == 0.0)
     small = np.abs(rc[rc != 0.0])
     assert small.size and small.min() >= floor
     # the floor cleared cells that hold debris without it
-    sim0 = SimulationND(_model(), grid, Scheme(stepper="kutta3", filter=True, dt=2e-4))
-    ui, ri = to_internal(grid, u, rho)
-    ui, ri = ui.copy(), ri.copy()
-    sim0.advance_internal(ui, ri, 0.001, 0.001 + 6e-4)
-    r0 = ri[:, 0, :] if grid.dim == 2 else ri
+    (_, r0), _ = _three_steps(SimulationND(_model(), grid, Scheme(stepper="kutta3", filter=True, dt=2e-4)), u, rho)
     assert np.count_nonzero(rc == 0.0) > np.count_nonzero(r0 == 0.0)
 
 

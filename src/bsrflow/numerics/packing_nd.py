@@ -38,8 +38,8 @@ import numba
 import numpy as np
 from numba import prange
 
-from ..physics.interaction import Interaction, constant_wave_speed
-from ..physics.packing import history_update, packing_wave_speed
+from ..physics.interaction import Interaction
+from ..physics.packing import BilinearStiffness, history_update
 from . import packing_kernels as pk
 
 __all__ = ["PackingLawND", "EulerianPackingND", "run_packing_nd", "fv_rhs_nd", "verify_cases"]
@@ -50,7 +50,7 @@ LINE_BLOCKS = 64
 
 
 @dataclass(frozen=True)
-class PackingLawND(Interaction):
+class PackingLawND(BilinearStiffness, Interaction):
     """The packing stress on an n-D grid (SI): ``stiffness`` [Pa/m] the packing's loading
     stiffness, restitution e in (0, 1] (unloading k1/e²), diameter d [m], close_packing_density
     ρ_c [kg/m^n]; ``stiffness_factor`` φ in (0, 1] scales loading and unloading together (the
@@ -96,16 +96,6 @@ class PackingLawND(Interaction):
                    law.stiffness_factor)
 
     @property
-    def k1(self) -> float:
-        """Loading stiffness used [Pa/m]: ``stiffness`` times the stiffness factor."""
-        return self.stiffness * self.stiffness_factor
-
-    @property
-    def k2(self) -> float:
-        """Unloading stiffness used [Pa/m], k1/e²."""
-        return self.k1 / self.restitution ** 2
-
-    @property
     def m_eff(self) -> float:
         """ρ_c d: the 1-D kernels' "particle mass" (δ = d − m/ρ); the 1-D law's m when built
         from it."""
@@ -115,15 +105,8 @@ class PackingLawND(Interaction):
 
     def wave_speed(self) -> float:
         """Bound on the sound speed at close packing, √(k2 m_eff)/ρ_c = d √(k2/m_eff) [m/s] (the
-        1-D law's formula)."""
+        1-D law's formula; k1, k2 [Pa/m] of :class:`~bsrflow.physics.packing.BilinearStiffness`)."""
         return self.diameter * math.sqrt(self.k2 / self.m_eff)
-
-    def wave_speed_bound(self, state=None) -> float:
-        """√(k2 m_eff)/ρ_c [m/s] for every state: no denser state has a faster wave."""
-        return self.wave_speed()
-
-    def compiled_wave_speed(self):
-        return constant_wave_speed, np.array([self.wave_speed()])
 
     def to_dict(self) -> dict:
         return {"name": "packing_nd", "stiffness": self.stiffness, "stiffness_factor": self.stiffness_factor,

@@ -73,9 +73,8 @@ import numpy as np
 
 from .interaction import Interaction, constant_wave_speed
 
-__all__ = ["PackingLaw", "packing_force", "packing_wave_speed", "history_update", "impact_speed",
-           "stiffness_factor_for_mach",
-           "packing_force_numpy", "single_contact_restitution"]
+__all__ = ["PackingLaw", "BilinearStiffness", "packing_force", "packing_wave_speed", "history_update",
+           "impact_speed", "stiffness_factor_for_mach", "packing_force_numpy", "single_contact_restitution"]
 
 
 @numba.njit(cache=True, inline="always")
@@ -122,8 +121,34 @@ def packing_force_numpy(delta, dmax, k1, k2):
     return np.maximum(0.0, k1 * dm - k2 * (dm - delta))
 
 
+class BilinearStiffness:
+    """The stiffness pieces the 1-D and the n-D packing laws share (a mixin of the dataclasses
+    :class:`PackingLaw` and :class:`bsrflow.numerics.packing_nd.PackingLawND`, which hold
+    ``stiffness``, ``restitution`` and ``stiffness_factor`` and define :meth:`wave_speed`, the
+    sound speed at close packing).  Units: those of ``stiffness``, N/m in 1-D, Pa/m in n-D."""
+
+    @property
+    def k1(self) -> float:
+        """Loading stiffness used: ``stiffness`` times the stiffness factor."""
+        return self.stiffness * self.stiffness_factor
+
+    @property
+    def k2(self) -> float:
+        """Unloading stiffness used, K1/e²."""
+        return self.k1 / self.restitution ** 2
+
+    def wave_speed_bound(self, state=None) -> float:
+        """The sound speed at close packing (:meth:`wave_speed`) [m/s] for every state: no denser
+        state has a faster wave."""
+        return self.wave_speed()
+
+    def compiled_wave_speed(self):
+        """(:func:`~bsrflow.physics.interaction.constant_wave_speed`, [:meth:`wave_speed`])."""
+        return constant_wave_speed, np.array([self.wave_speed()])
+
+
 @dataclass(frozen=True)
-class PackingLaw(Interaction):
+class PackingLaw(BilinearStiffness, Interaction):
     """The packing interaction's constants (SI units): an
     :class:`~bsrflow.physics.interaction.Interaction` whose kernel reads the density and the
     history field at both points (module docstring) and whose wave-speed bound is the sound speed
@@ -155,16 +180,6 @@ class PackingLaw(Interaction):
         return self.density * math.pi / 6.0 * self.diameter ** 3
 
     @property
-    def k1(self) -> float:
-        """Loading stiffness used [N/m] (K times the stiffness factor)."""
-        return self.stiffness * self.stiffness_factor
-
-    @property
-    def k2(self) -> float:
-        """Unloading stiffness used [N/m], K1/e²."""
-        return self.k1 / self.restitution ** 2
-
-    @property
     def close_packing_density(self) -> float:
         """m/d [kg/m]: the line density of touching spheres."""
         return self.particle_mass / self.diameter
@@ -173,16 +188,9 @@ class PackingLaw(Interaction):
     radius = property(lambda self: self.diameter, doc="R = d [m], the range of the BSR form (module docstring).")
 
     def wave_speed(self) -> float:
-        """Sound speed bound at close packing, d √(K2/m) [m/s]."""
+        """Sound speed bound at close packing, d √(K2/m) [m/s] (K1 = :attr:`k1`, K2 = :attr:`k2`
+        [N/m] of :class:`BilinearStiffness`)."""
         return self.diameter * math.sqrt(self.k2 / self.particle_mass)
-
-    def wave_speed_bound(self, state=None) -> float:
-        """d √(K2/m) [m/s] for every state (class docstring)."""
-        return self.wave_speed()
-
-    def compiled_wave_speed(self):
-        """(:func:`~bsrflow.physics.interaction.constant_wave_speed`, [d √(K2/m)])."""
-        return constant_wave_speed, np.array([self.wave_speed()])
 
     def to_dict(self) -> dict:
         return {"name": "packing", "stiffness": self.stiffness, "restitution": self.restitution,
