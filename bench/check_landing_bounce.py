@@ -5,8 +5,10 @@ DEM's (issue #18: where the Eulerian bounce at 40 cells per diameter comes from)
         [--stiffness-factor 1] [--times 0.9,0.95,1.0,1.05,1.1,1.15,1.2]
 
 Prints the mass centre [d] at ``--times`` (within the run) for the DEM and each run
-(formulation:points per diameter), then, for the last run, the material above the column at the
-end: the cells with more than 1e-6 ρ_c above the resting column's top N d, their density range
+(formulation:points per diameter); then the top of the material [d] in the lab frame (the DEM:
+the top sphere's centre + d/2; a continuum: the upper face of its highest cell above 1e-3 ρ_c)
+and the DEM's widest gap between neighbouring spheres [d] (surface to surface: how spread out it
+lands); then, for the last run, the material above the column at the end: the cells with more than 1e-6 ρ_c above the resting column's top N d, their density range
 [ρ_c], extent [d] and mass-weighted mean velocity [m/s].  The true-stiffness Eulerian run at 40 cells per diameter takes about
 10 minutes on one core of this VM.
 """
@@ -31,6 +33,17 @@ def _run_spec(text):
     return form, int(ppd)
 
 
+def _table(series, names, times, d, title, extra=lambda tt: ""):
+    """Print series[name] = (t, values [m]) in units of d at ``times`` ('-' outside a run)."""
+    print("t [s]  " + "  ".join(f"{n:>14s}" for n in names) + "   " + title)
+    for tt in times:
+        row = []
+        for n in names:
+            t, v = series[n]
+            row.append(f"{np.interp(tt, t, v) / d:14.2f}" if t[0] <= tt <= t[-1] else f"{'-':>14s}")
+        print(f"{tt:5.2f}  " + "  ".join(row) + extra(tt))
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--case", default="d22mm_a1.0")
@@ -47,6 +60,7 @@ def main(argv=None):
     d = base.diameter
     t_d, pos, _ = run_dem_column(base)
     series = {"DEM": (t_d, pos.mean(axis=1))}
+    tops = {"DEM": (t_d, pos[:, -1] + 0.5 * d)}
     last = None
     for form, ppd in args.runs:
         s = case_setup(known[args.case], ColumnSetup(points_per_diameter=ppd)).with_(
@@ -55,15 +69,17 @@ def main(argv=None):
         r = run_bsr_column(s)
         print(f"{form} {ppd} per diameter: {r.steps} steps, {time.perf_counter() - w:.1f} s", flush=True)
         series[f"{form} {ppd}"] = (r.t, r.mass_centre)
+        rc_run = s.packing_law().close_packing_density
+        dx = r.x[1] - r.x[0]
+        top = np.array([r.x[np.nonzero(rho > 1e-3 * rc_run)[0][-1]] + 0.5 * dx if np.any(rho > 1e-3 * rc_run) else 0.0
+                        for rho in r.rho])
+        tops[f"{form} {ppd}"] = (r.t, top + r.floor)       # the grid is the floor's frame; the DEM's the lab's
         last = (s, r)
     names = list(series)
-    print("t [s]  " + "  ".join(f"{n:>14s}" for n in names) + "   (mass centre [d])")
-    for tt in args.times:
-        row = []
-        for n in names:
-            t, mc = series[n]
-            row.append(f"{np.interp(tt, t, mc) / d:14.2f}" if t[0] <= tt <= t[-1] else f"{'-':>14s}")
-        print(f"{tt:5.2f}  " + "  ".join(row))
+    _table(series, names, args.times, d, "(mass centre [d])")
+    gap = np.max(np.diff(pos, axis=1), axis=1) - d
+    _table(tops, names, args.times, d, "(top of the material [d], lab frame)   DEM widest gap [d]",
+           extra=lambda tt: f"   {np.interp(tt, t_d, gap) / d:8.2f}" if t_d[0] <= tt <= t_d[-1] else f"   {'-':>8s}")
     s, r = last
     rc = s.packing_law().close_packing_density
     rho, u, x = r.rho[-1], r.u[-1], r.x

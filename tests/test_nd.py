@@ -224,6 +224,8 @@ def test_density_floor_is_checked_and_reaches_the_column_solver():
         SimulationND(_model(), grid, vacuum_density=1.0, density_floor=5.0)
     with pytest.raises(ValueError, match=r"^density_floor = -1.0 is outside the valid range \[0, inf\)"):
         SimulationND(_model(), grid, density_floor=-1.0)
+    with pytest.raises(ValueError, match=r"^density_floor = None must be a number"):
+        SimulationND(_model(), grid, density_floor=None)
     column = SimulationND(_model(), GridND((20,), DX), density_floor=1e-6)
     assert column._line.density_floor == 1e-6
 

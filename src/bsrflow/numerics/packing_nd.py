@@ -472,7 +472,8 @@ class EulerianPackingND:
     gravity g [m/s²]; cfl in (0, 0.5/n] (default 0.4/n); rho0 : initial density (*grid.shape)
     [kg/m^n], at rest, δ_max = 0; tracers : None or (n_tr, dim) positions [m] (floor frame,
     inside the grid; dim >= 2), moved with the interpolated velocity (:func:`tracer_velocity`)
-    by the fields' SSP-RK3 stages.  ``supports`` lists the options it takes."""
+    by the fields' SSP-RK3 stages.  ``supports`` lists the options it takes (``tracers`` in
+    2-D / 3-D: a column's tracers are the 1-D formulations' mass coordinates)."""
 
     name = "eulerian_nd"
     supports = frozenset({"cfl", "stiffness_factor", "save_every", "checkpoint_every", "tracers"})
@@ -562,9 +563,14 @@ class EulerianPackingND:
         if self.dim == 1:
             raise ValueError("tracers: the n-D packing solver moves tracers in 2-D / 3-D only; a column's "
                              "tracers are its mass coordinates (bsrflow.numerics.packing)")
-        p = np.asarray(positions, dtype=float)
-        if p.ndim != 2 or p.shape[1] != self.dim or not np.all(np.isfinite(p)):
-            raise ValueError(f"tracers: need finite positions of shape (n, {self.dim}) [m], got {p.shape}")
+        try:
+            p = np.asarray(positions, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"tracers: need an array of numbers of shape (n, {self.dim}) [m]") from None
+        if p.ndim != 2 or p.shape[1] != self.dim:
+            raise ValueError(f"tracers: need positions of shape (n, {self.dim}) [m], got {p.shape}")
+        if not np.all(np.isfinite(p)):
+            raise ValueError("tracers: the positions must be finite numbers [m]")
         lo, hi = np.asarray(self.grid.lower, float), np.asarray(self.grid.upper, float)
         for k, pt in enumerate(p):
             if np.any(pt < lo) or np.any(pt > hi):

@@ -191,7 +191,9 @@ class SimulationND:
         if average not in AVERAGES:
             raise ValueError(f"average = {average!r} is not one of {sorted(AVERAGES)}")
         for name, v in (("rho_max", rho_max), ("dt_min", dt_min), ("top_tolerance", top_tolerance),
-                        ("vacuum_density", vacuum_density)):
+                        ("vacuum_density", vacuum_density), ("density_floor", density_floor)):
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+                raise ValueError(f"{name} = {v!r} must be a number")
             if not (np.isfinite(v) and v >= 0):
                 raise ValueError(f"{name} = {v!r} is outside the valid range [0, inf)")
         if int(max_steps) != max_steps or max_steps < 1:
