@@ -2,12 +2,15 @@
 on 1 and 2 threads, the parallel efficiency, and the modelled memory traffic per cell against a
 bandwidth measured on this machine in the same run.
 
-    python bench/bench_packing_nd.py [--json bench/results.json] [--sizes 64 128] [--steps 3]
+    python bench/bench_packing_nd.py [--json bench/results.json] [--sizes 64 128] [--steps 3] [--repeats 5]
 
 The state: a 3-D bed of the LIGGGHTS spheres' law (PackingLawND.for_spheres) filling the lower
 half of a periodic box with a small random density and velocity perturbation (every cell does
 the full work: material everywhere below the top, vacuum above), advanced ``--steps`` SSP-RK3
-steps (3 right-hand sides each) after one warm-up step; the median of three timings.
+steps (3 right-hand sides each) after one warm-up step.  The 1- and 2-thread timings are
+interleaved (``--repeats`` pairs, one bed per thread count), so that a change of the machine's
+load during the run falls on both alike: ns per cell-stage is the median over the repeats, the
+parallel efficiency the median over the pairs of t1 / (2 t2), with its smallest and largest value.
 Bandwidth: ``np.copyto`` of a 256 MiB array (read + write counted), the median of five.
 Traffic model of one stage per cell: the right-hand side reads q (5 doubles) on each of the
 3 axis passes and writes dq once and updates it twice (read + write), the stage update reads
@@ -55,19 +58,26 @@ def make(n):
     return disc
 
 
-def time_steps(n, threads, steps):
-    numba.set_num_threads(threads)
-    disc = make(n)
-    dt_guess = disc.cfl * disc.grid.dx / disc.c_bound
-    t = disc.advance(0.0, dt_guess * 0.999)      # compile + warm-up: one step
-    walls = []
-    for _ in range(3):
-        s0 = disc.steps
-        t0 = time.perf_counter()
-        t = disc.advance(t, t + steps * dt_guess * 0.999)
-        walls.append((time.perf_counter() - t0, disc.steps - s0))
-    w, k = sorted(walls)[1]
-    return w / (k * 3 * n ** 3) * 1e9, k
+def time_pairs(n, steps, repeats, thread_counts):
+    """Interleaved timings (module docstring): {threads: [ns per cell-stage per repeat]}."""
+    discs, times = {}, {}
+    for threads in thread_counts:
+        numba.set_num_threads(threads)
+        disc = make(n)
+        dt_guess = disc.cfl * disc.grid.dx / disc.c_bound
+        discs[threads] = [disc, disc.advance(0.0, dt_guess * 0.999), dt_guess]    # compile + warm-up: one step
+        times[threads] = []
+    for _ in range(repeats):
+        for threads in thread_counts:
+            numba.set_num_threads(threads)
+            disc, t, dt_guess = discs[threads]
+            s0 = disc.steps
+            t0 = time.perf_counter()
+            t = disc.advance(t, t + steps * dt_guess * 0.999)
+            wall = time.perf_counter() - t0
+            discs[threads][1] = t
+            times[threads].append(wall / ((disc.steps - s0) * 3 * n ** 3) * 1e9)
+    return times
 
 
 def main(argv=None):
@@ -75,7 +85,10 @@ def main(argv=None):
     ap.add_argument("--json", default="bench/results.json")
     ap.add_argument("--sizes", type=int, nargs="+", default=[64, 128])
     ap.add_argument("--steps", type=int, default=3)
+    ap.add_argument("--repeats", type=int, default=5)
     args = ap.parse_args(argv)
+    if args.repeats < 1:
+        ap.error(f"--repeats {args.repeats} outside the valid range [1, inf)")
     for n in args.sizes:
         if n < 32:
             ap.error(f"--sizes {n} outside the valid range [32, inf) (the bed fills the lower half; a smaller "
@@ -90,18 +103,22 @@ def main(argv=None):
     print(f"bandwidth (np.copyto, read + write): {bw / 1e9:.2f} GB/s; modelled traffic {BYTES_PER_CELL_STAGE} B "
           f"per cell-stage -> bound {BYTES_PER_CELL_STAGE / bw * 1e9:.2f} ns per cell-stage")
     out = {"bandwidth_GB_s": bw / 1e9, "bytes_per_cell_stage_model": BYTES_PER_CELL_STAGE, "sizes": {}}
+    threads_used = [k for k in (1, 2) if k <= n_max]
     for n in args.sizes:
-        row = {}
-        for threads in (1, 2):
-            if threads > n_max:
-                continue
-            ns, k = time_steps(n, threads, args.steps)
+        times = time_pairs(n, args.steps, args.repeats, threads_used)
+        row = {"repeats": args.repeats}
+        for threads in threads_used:
+            ns = float(np.median(times[threads]))
             row[f"ns_per_cell_stage_{threads}t"] = ns
-            print(f"{n}^3, {threads} thread(s): {ns:.1f} ns per cell-stage ({k} steps); "
-                  f"{BYTES_PER_CELL_STAGE / ns:.2f} GB/s modelled traffic")
-        if "ns_per_cell_stage_2t" in row:
-            row["parallel_efficiency_2t"] = row["ns_per_cell_stage_1t"] / (2 * row["ns_per_cell_stage_2t"])
-            print(f"{n}^3: 2-thread parallel efficiency {row['parallel_efficiency_2t']:.2f}")
+            print(f"{n}^3, {threads} thread(s): {ns:.1f} ns per cell-stage (median of {args.repeats}; "
+                  f"{min(times[threads]):.1f}-{max(times[threads]):.1f}); {BYTES_PER_CELL_STAGE / ns:.2f} GB/s "
+                  "modelled traffic")
+        if 2 in threads_used:
+            eff = [a / (2.0 * b) for a, b in zip(times[1], times[2])]
+            row["parallel_efficiency_2t"] = float(np.median(eff))
+            row["parallel_efficiency_2t_range"] = [float(min(eff)), float(max(eff))]
+            print(f"{n}^3: 2-thread parallel efficiency {row['parallel_efficiency_2t']:.2f} (median of "
+                  f"{len(eff)} interleaved pairs; {min(eff):.2f}-{max(eff):.2f})")
         out["sizes"][str(n)] = row
     numba.set_num_threads(n_max)
     merge_json(args.json, "packing_nd_step", out)

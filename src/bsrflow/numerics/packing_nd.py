@@ -272,29 +272,50 @@ def fv_post_step_nd(q, d, m, rho_floor):
                 q[HIST, i, j, k] = r * history_update(d - m / r, h)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, parallel=True)
 def _speed_and_top(q, rho_tiny):
     """(max over cells of Σ_a |u_a|, fraction of the mass in the top 6 layers of cells, status,
-    where)."""
+    where): per vertical plane i in parallel, then reduced in the order of i (the same numbers
+    on any number of threads); status 2 at the first non-finite cell, else 1 at the first
+    negative density (flat index order)."""
     _, NX, NY, NZ = q.shape
-    umax = 0.0
-    total = 0.0
-    near_top = 0.0
-    for i in range(NX):
+    umax_i = np.zeros(NX)
+    total_i = np.zeros(NX)
+    near_i = np.zeros(NX)
+    status_i = np.zeros(NX, np.int64)
+    where_i = np.full(NX, -1, np.int64)
+    for i in prange(NX):
+        umax = 0.0
+        total = 0.0
+        near_top = 0.0
         for j in range(NY):
             for k in range(NZ):
                 r = q[RHO, i, j, k]
                 if not (math.isfinite(r) and math.isfinite(q[MZ, i, j, k])):
-                    return umax, 0.0, 2, (i * NY + j) * NZ + k
+                    if status_i[i] != 2:
+                        status_i[i], where_i[i] = 2, (i * NY + j) * NZ + k
+                    continue
                 if r < 0.0:
-                    return umax, 0.0, 1, (i * NY + j) * NZ + k
+                    if status_i[i] == 0:
+                        status_i[i], where_i[i] = 1, (i * NY + j) * NZ + k
+                    continue
                 total += r
                 if k >= NZ - 6:
                     near_top += r
                 if r > rho_tiny:
                     s = (abs(q[MX, i, j, k]) + abs(q[MY, i, j, k]) + abs(q[MZ, i, j, k])) / r
                     umax = max(umax, s)
-    return umax, near_top / total if total > 0.0 else 0.0, 0, -1
+        umax_i[i], total_i[i], near_i[i] = umax, total, near_top
+    for st in (2, 1):
+        for i in range(NX):
+            if status_i[i] == st:
+                return umax_i.max(), 0.0, st, where_i[i]
+    total = 0.0
+    near = 0.0
+    for i in range(NX):
+        total += total_i[i]
+        near += near_i[i]
+    return umax_i.max(), near / total if total > 0.0 else 0.0, 0, -1
 
 
 @numba.njit(cache=True)
@@ -409,21 +430,19 @@ def _stage3(qf, i1f, i2f, dqf, dt):
 
 @numba.njit(cache=True)
 def fv_advance_nd(q, t, t_stop, dim, dx, cfl, c_bound, d, m, k1, k2, rho_tiny, rho_floor, top_fraction, fn, params,
-                  gravity, counters, tracers, lo, box):
+                  gravity, counters, tracers, lo, box, work):
     """SSP-RK3 steps (increment form, as the 1-D ``fv_advance``) from t to exactly t_stop.
     counters: [steps, status, where]; status 1 negative density, 2 non-finite, 3 more than
     ``top_fraction`` of the mass in the top 6 layers of cells (the 1-D column stops on any
     material there; see :attr:`EulerianPackingND.top_fraction`).  tracers (n, 3) [m] (floor
     frame; n = 0 for none) move with the interpolated velocity (:func:`tracer_velocity`) by the
-    same SSP-RK3 stages; lo (3) the grid's lower corner, box (3) its extents [m]."""
+    same SSP-RK3 stages; lo (3) the grid's lower corner, box (3) its extents [m].  work: the
+    stage arrays (5, *q.shape), allocated once by the caller (q1, q2, dq and the two increments;
+    every element is written before it is read)."""
     _, NX, NY, NZ = q.shape
     vt = np.zeros((3, tracers.shape[0], 3))
     top = lo[2] + box[2]
-    q1 = q.copy()
-    q2 = q.copy()
-    dq = np.zeros_like(q)
-    inc1 = np.zeros_like(q)
-    inc2 = np.zeros_like(q)
+    q1, q2, dq, inc1, inc2 = work[0], work[1], work[2], work[3], work[4]
     qf, q1f, q2f, dqf = q.reshape(-1), q1.reshape(-1), q2.reshape(-1), dq.reshape(-1)
     i1f, i2f = inc1.reshape(-1), inc2.reshape(-1)
     while t < t_stop:
@@ -626,7 +645,8 @@ class EulerianPackingND:
             return t
         t = fv_advance_nd(self.q, float(t), float(t_stop), self.dim, self.grid.dx, self.cfl, self.c_bound,
                           law.diameter, law.m_eff, law.k1, law.k2, self.rho_tiny, self.rho_floor, self.top_fraction,
-                          self._fn, self._params, self.gravity, self.counters, self.tracers, self._lo, self._box)
+                          self._fn, self._params, self.gravity, self.counters, self.tracers, self._lo, self._box,
+                          self._work())
         self.steps = int(self.counters[0])
         status = int(self.counters[1])
         if status == 3:
@@ -637,6 +657,12 @@ class EulerianPackingND:
             msg = {1: "negative density", 2: "non-finite state"}[status]
             raise PackingError(f"{msg} at t = {t:.6g} s (flat cell index {int(self.counters[2])})", t)
         return t
+
+    def _work(self):
+        """The stage arrays of :func:`fv_advance_nd`, allocated at the first step and kept."""
+        if getattr(self, "_work_arrays", None) is None:
+            self._work_arrays = np.empty((5,) + self.q.shape)
+        return self._work_arrays
 
     def observe(self):
         """(u (n, *shape) [m/s] floor frame, rho (*shape) [kg/m^n]) in the user layout."""
