@@ -252,6 +252,11 @@ def test_fv_rhs_matches_reference_random(seed):
     # the random states exercise the branches: loading and unloading faces, separated and vacuum
     r = q[pk.RHO, pk.NG:]
     assert np.any(r > RC) and np.any((r > 0) & (r < RC)) and np.any(r == 0)
+    # ... and both reconstructions: first order at compaction faces, second order elsewhere
+    w_r = np.where(r > RHO_TINY, r, 0.0)
+    w_u = np.where(r > RHO_TINY, q[pk.MOM, pk.NG:] / np.where(r > 0, r, 1.0), 0.0)
+    first = ref.compaction_face(w_r[:-1], w_u[:-1], w_r[1:], w_u[1:], D, MASS)
+    assert 0 < np.count_nonzero(first) < first.size - 10
     dq, _, _ = _compare_rhs(q, -G + rng.normal(0, 100.0))
     # mass: the right-hand side of ρ sums to zero (floor and top fluxes vanish)
     assert abs(dq[pk.RHO].sum()) <= 1e-14 * np.abs(dq[pk.RHO]).sum()

@@ -251,17 +251,21 @@ def test_tracer_integrator_is_third_order_and_wraps_the_periodic_sides():
 
 def test_tracers_of_a_uniform_bed_follow_its_material_lines():
     """A flat bed is horizontally uniform, so its material lines are its mass coordinates: the
-    tracers, moved with the interpolated velocity, stay on them through launch, flight and landing
-    (bench/check_bed_tracers.py at 4 cells per diameter measured 0.042 / 0.037 / 0.051 d inside
-    the bed and 0.376 d in its top cell, 0.017 / 0.008 / 0.012 and 0.170 d at 8: first order),
-    and their horizontal positions do not move at all."""
+    tracers, moved with the interpolated velocity, stay on them through launch, flight and
+    landing, closer on the finer grid, and their horizontal positions do not move at all.  The
+    distance measures the scheme's numerical mass diffusion, largest at the bed's top, where the
+    first-order compaction faces of the landing smear it (bench/check_bed_tracers.py, 2026-12-02:
+    at 2 / 4 / 8 cells per diameter 0.078 / 0.025 / 0.018 d, 0.075 / 0.033 / 0.003 d and
+    0.276 / 0.160 / 0.057 d for the tracers starting 0.5, 1.5 and 2.5 d up, 1.166 / 0.918 / 0.546 d
+    for the one in the top cell; 0.042 / 0.037 / 0.051 / 0.376 d at 4 before those faces)."""
     import sys
     sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "bench"))
     from check_bed_tracers import material_line_errors
-    r = material_line_errors(4)
-    assert r["horizontal_drift_m"] == 0.0
-    assert max(r["max_distance_d"][:3]) < 0.1
-    assert r["max_distance_d"][3] < 0.5
+    coarse, fine = material_line_errors(2), material_line_errors(4)
+    assert coarse["horizontal_drift_m"] == 0.0 and fine["horizontal_drift_m"] == 0.0
+    assert np.all(np.array(fine["max_distance_d"]) < np.array(coarse["max_distance_d"]))
+    assert max(fine["max_distance_d"][:2]) < 0.05            # deep in the bed
+    assert fine["max_distance_d"][2] < 0.2 and fine["max_distance_d"][3] < 1.0
 
 
 def test_tracers_refused_on_a_column():

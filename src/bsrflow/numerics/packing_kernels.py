@@ -60,6 +60,18 @@ def active_top(q, start):
 
 
 @numba.njit(cache=True, inline="always")
+def compaction_face(rl, ul, rr, ur, d, m):
+    """True at a face where the material is being packed: the cells' velocities converge
+    (u_r < u_l) and at least one of the two cells is below close packing (ρ d < m; a vacuum
+    cell, ρ = 0, counts).  The reconstruction there is first order (the cells' own states): a
+    compaction front is a shock of pressureless material running into the packing, and the
+    limited slopes of the second-order reconstruction put states beyond close packing into the
+    face, whose stiff stress gave part of the landing's kinetic energy back (the landed column
+    rebounded, docs/model.md)."""
+    return ur < ul and min(rl, rr) * d < m
+
+
+@numba.njit(cache=True, inline="always")
 def hlle_waves(rL, uL, hL, rR, uR, hR, d, m, k1, k2, c_cap, rho_tiny):
     """The HLLE wave bounds between the face states L and R (see fv_rhs): returns
     (S_L, S_R, u_L, u_R, P_L, P_R), the velocities set to 0 in vacuum.  Shared by the 1-D flux
@@ -124,7 +136,8 @@ def fv_rhs(q, dq, hi, dx, accel, d, m, k1, k2, c_cap, rho_tiny, w, flux):
     hi+2 empty, so that no material crosses face hi+1/2).
 
     Primitive states w = (ρ, u, δ_max) per cell, minmod-limited linear reconstruction at the
-    faces i+1/2, i = -1..hi; HLLE flux of (ρu, ρu² + P, ρuδ_max) with Einfeldt's bounds
+    faces i+1/2, i = -1..hi, first order (the cells' own states) at compaction faces
+    (:func:`compaction_face`: converging velocities, a cell below close packing); HLLE flux of (ρu, ρu² + P, ρuδ_max) with Einfeldt's bounds
     S_L = min(u_L − c_L, û − ĉ), S_R = max(u_R + c_R, û + ĉ), û the √ρ-weighted mean velocity and
     ĉ² = (P_R − P_L)/(ρ_R − ρ_L) the secant (Rankine–Hugoniot) sound speed, capped at ``c_cap``;
     at a stress-free edge of the packing (P = 0 on both sides) ĉ = 0, so no material is smeared
@@ -141,12 +154,16 @@ def fv_rhs(q, dq, hi, dx, accel, d, m, k1, k2, c_cap, rho_tiny, w, flux):
     for f in range(hi + 2):                       # face f - 1/2 between padded cells f+1 and f+2
         jl = f + 1
         jr = f + 2
-        rL = w[0, jl] + 0.5 * _minmod(w[0, jl] - w[0, jl - 1], w[0, jr] - w[0, jl])
-        uL = w[1, jl] + 0.5 * _minmod(w[1, jl] - w[1, jl - 1], w[1, jr] - w[1, jl])
-        hL = w[2, jl] + 0.5 * _minmod(w[2, jl] - w[2, jl - 1], w[2, jr] - w[2, jl])
-        rR = w[0, jr] - 0.5 * _minmod(w[0, jr] - w[0, jl], w[0, jr + 1] - w[0, jr])
-        uR = w[1, jr] - 0.5 * _minmod(w[1, jr] - w[1, jl], w[1, jr + 1] - w[1, jr])
-        hR = w[2, jr] - 0.5 * _minmod(w[2, jr] - w[2, jl], w[2, jr + 1] - w[2, jr])
+        if compaction_face(w[0, jl], w[1, jl], w[0, jr], w[1, jr], d, m):
+            rL, uL, hL = w[0, jl], w[1, jl], w[2, jl]
+            rR, uR, hR = w[0, jr], w[1, jr], w[2, jr]
+        else:
+            rL = w[0, jl] + 0.5 * _minmod(w[0, jl] - w[0, jl - 1], w[0, jr] - w[0, jl])
+            uL = w[1, jl] + 0.5 * _minmod(w[1, jl] - w[1, jl - 1], w[1, jr] - w[1, jl])
+            hL = w[2, jl] + 0.5 * _minmod(w[2, jl] - w[2, jl - 1], w[2, jr] - w[2, jl])
+            rR = w[0, jr] - 0.5 * _minmod(w[0, jr] - w[0, jl], w[0, jr + 1] - w[0, jr])
+            uR = w[1, jr] - 0.5 * _minmod(w[1, jr] - w[1, jl], w[1, jr + 1] - w[1, jr])
+            hR = w[2, jr] - 0.5 * _minmod(w[2, jr] - w[2, jl], w[2, jr + 1] - w[2, jr])
         flux[0, f], flux[1, f], flux[2, f] = _hlle(rL, uL, hL, rR, uR, hR, d, m, k1, k2, c_cap, rho_tiny)
     inv_dx = 1.0 / dx
     for k in range(hi + 1):

@@ -25,7 +25,7 @@ __all__ = ["RHO", "MOM", "HIST", "NG", "contact_force", "history_update", "wave_
            "hlle_flux", "fill_ghosts", "fv_rhs", "fv_post_step", "fv_time_step", "active_top",
            "ssp_rk3_step", "bond_lengths", "lagrangian_forces", "lagrangian_accelerations",
            "lagrangian_history", "verlet_step", "hlle_waves", "hlle_combine", "fv_rhs_nd", "no_tension",
-           "tracer_velocity_numpy"]
+           "tracer_velocity_numpy", "compaction_face"]
 
 RHO, MOM, HIST = 0, 1, 2
 NG = 2
@@ -148,6 +148,9 @@ def fv_rhs_nd(q, dim, dx, accel, d, m, k1, k2, c_cap, rho_tiny):
             w = [np.concatenate([x[..., -2:], x, x[..., :3]], axis=-1) for x in w]
         n = w[0].shape[-1] - 5
 
+        first = compaction_face(w[0][..., 1:n + 2], w[normal][..., 1:n + 2], w[0][..., 2:n + 3],
+                                w[normal][..., 2:n + 3], d, m)
+
         def faces(x):
             c = x[..., 1:n + 2]
             left = x[..., 0:n + 1]
@@ -155,7 +158,7 @@ def fv_rhs_nd(q, dim, dx, accel, d, m, k1, k2, c_cap, rho_tiny):
             rr = x[..., 3:n + 4]
             xl = c + 0.5 * minmod(c - left, right - c)
             xr = right - 0.5 * minmod(right - c, rr - right)
-            return xl, xr
+            return np.where(first, c, xl), np.where(first, right, xr)
 
         (rL, rR), (uL, uR), (hL, hR) = faces(w[0]), faces(w[normal]), faces(w[4])
         tL, tR = zip(*[faces(w[c]) for c in others])
@@ -188,9 +191,16 @@ def fill_ghosts(q, hi):
     return q
 
 
-def _face_states(q, hi, rho_tiny):
+def compaction_face(rl, ul, rr, ur, d, m):
+    """The faces where the material is being packed (arrays): u_r < u_l and min(ρ_l, ρ_r) d < m;
+    their reconstruction is first order (``packing_kernels.compaction_face``)."""
+    return (ur < ul) & (np.minimum(rl, rr) * d < m)
+
+
+def _face_states(q, hi, rho_tiny, d, m):
     """Minmod-reconstructed primitive states (ρ, u, δ_max) on both sides of faces i+1/2,
-    i = −1..hi: two arrays (3, hi+2)."""
+    i = −1..hi: two arrays (3, hi+2); at compaction faces (:func:`compaction_face`) the two
+    cells' own states."""
     cells = q[:, :NG + hi + 3].copy()             # cells -2 .. hi+2
     cells[:, NG + hi + 1:] = 0.0                  # cells hi+1, hi+2 are vacuum by contract
     r = cells[RHO]
@@ -203,6 +213,9 @@ def _face_states(q, hi, rho_tiny):
     centre = w[:, 1:-1]
     left = centre[:, :-1] + 0.5 * slope[:, :-1]   # cells -1 .. hi: value at their upper face
     right = centre[:, 1:] - 0.5 * slope[:, 1:]    # cells 0 .. hi+1: value at their lower face
+    first = compaction_face(centre[0, :-1], centre[1, :-1], centre[0, 1:], centre[1, 1:], d, m)
+    left = np.where(first, centre[:, :-1], left)
+    right = np.where(first, centre[:, 1:], right)
     return left, right
 
 
@@ -211,7 +224,7 @@ def fv_rhs(q, hi, dx, accel, d, m, k1, k2, c_cap, rho_tiny):
 
     Returns (dq (3, hi+1), flux (3, hi+2)); flux[:, f] is the flux through face f − 1/2
     (f = 0: the floor).  dq = −(F_{k+1/2} − F_{k−1/2})/Δx + (0, ρ_k accel, 0)."""
-    left, right = _face_states(q, hi, rho_tiny)
+    left, right = _face_states(q, hi, rho_tiny, d, m)
     flux = hlle_flux(left[0], left[1], left[2], right[0], right[1], right[2], d, m, k1, k2, c_cap, rho_tiny)
     dq = -(flux[:, 1:] - flux[:, :-1]) / dx
     dq[MOM] += q[RHO, NG:NG + hi + 1] * accel
