@@ -121,20 +121,19 @@ def _axis_face(wr, wu, wt1, wt2, wh, jl, jr, d, m, k1, k2, c_cap, rho_tiny):
     """HLLE fluxes (mass, normal momentum, transverse momenta 1, 2, history) at the face between
     padded cells jl and jr of one line of primitives (the 1-D fv_rhs reconstruction); the normal
     momentum flux carries no tension (``packing_kernels.no_tension``)."""
-    if pk.compaction_face(wr[jl], wu[jl], wr[jr], wu[jr], d, m):     # first order (the 1-D rule)
-        rL, uL, hL, aL, bL = wr[jl], wu[jl], wh[jl], wt1[jl], wt2[jl]
-        rR, uR, hR, aR, bR = wr[jr], wu[jr], wh[jr], wt1[jr], wt2[jr]
-    else:
-        rL = wr[jl] + 0.5 * pk._minmod(wr[jl] - wr[jl - 1], wr[jr] - wr[jl])
-        uL = wu[jl] + 0.5 * pk._minmod(wu[jl] - wu[jl - 1], wu[jr] - wu[jl])
-        hL = wh[jl] + 0.5 * pk._minmod(wh[jl] - wh[jl - 1], wh[jr] - wh[jl])
-        rR = wr[jr] - 0.5 * pk._minmod(wr[jr] - wr[jl], wr[jr + 1] - wr[jr])
-        uR = wu[jr] - 0.5 * pk._minmod(wu[jr] - wu[jl], wu[jr + 1] - wu[jr])
-        hR = wh[jr] - 0.5 * pk._minmod(wh[jr] - wh[jl], wh[jr + 1] - wh[jr])
-        aL = wt1[jl] + 0.5 * pk._minmod(wt1[jl] - wt1[jl - 1], wt1[jr] - wt1[jl])
-        aR = wt1[jr] - 0.5 * pk._minmod(wt1[jr] - wt1[jl], wt1[jr + 1] - wt1[jr])
-        bL = wt2[jl] + 0.5 * pk._minmod(wt2[jl] - wt2[jl - 1], wt2[jr] - wt2[jl])
-        bR = wt2[jr] - 0.5 * pk._minmod(wt2[jr] - wt2[jl], wt2[jr + 1] - wt2[jr])
+    # half slopes, none at a compaction face (first order, the 1-D rule): a factor, not a branch
+    # (the branch cost the 3-D step 60 %; 0 * slope adds an exact 0, so the states are the same)
+    hs = 0.0 if pk.compaction_face(wr[jl], wu[jl], wr[jr], wu[jr], d, m) else 0.5
+    rL = wr[jl] + hs * pk._minmod(wr[jl] - wr[jl - 1], wr[jr] - wr[jl])
+    uL = wu[jl] + hs * pk._minmod(wu[jl] - wu[jl - 1], wu[jr] - wu[jl])
+    hL = wh[jl] + hs * pk._minmod(wh[jl] - wh[jl - 1], wh[jr] - wh[jl])
+    rR = wr[jr] - hs * pk._minmod(wr[jr] - wr[jl], wr[jr + 1] - wr[jr])
+    uR = wu[jr] - hs * pk._minmod(wu[jr] - wu[jl], wu[jr + 1] - wu[jr])
+    hR = wh[jr] - hs * pk._minmod(wh[jr] - wh[jl], wh[jr + 1] - wh[jr])
+    aL = wt1[jl] + hs * pk._minmod(wt1[jl] - wt1[jl - 1], wt1[jr] - wt1[jl])
+    aR = wt1[jr] - hs * pk._minmod(wt1[jr] - wt1[jl], wt1[jr + 1] - wt1[jr])
+    bL = wt2[jl] + hs * pk._minmod(wt2[jl] - wt2[jl - 1], wt2[jr] - wt2[jl])
+    bR = wt2[jr] - hs * pk._minmod(wt2[jr] - wt2[jl], wt2[jr + 1] - wt2[jr])
     SL, SR, uL, uR, pL, pR = pk.hlle_waves(rL, uL, hL, rR, uR, hR, d, m, k1, k2, c_cap, rho_tiny)
     if rL <= rho_tiny:
         aL, bL = 0.0, 0.0
