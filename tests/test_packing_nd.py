@@ -48,6 +48,11 @@ def test_compiled_rhs_matches_numpy(dim):
     dq = np.zeros_like(q)
     args = (dim, 0.001, -9.81 + 3.0, LAW.diameter, LAW.m_eff, LAW.k1, LAW.k2, LAW.wave_speed(),
             1e-12 * LAW.close_packing_density)
+    # the state has compaction faces (first order) and others (second order) along z
+    r = np.where(q[0] > args[-1], q[0], 0.0)
+    uz = np.where(q[0] > args[-1], q[3] / np.where(q[0] > 0, q[0], 1.0), 0.0)
+    first = ref.compaction_face(r[..., :-1], uz[..., :-1], r[..., 1:], uz[..., 1:], LAW.diameter, LAW.m_eff)
+    assert 0 < np.count_nonzero(first) < first.size
     fv_rhs_nd(q, dq, *args)
     want = ref.fv_rhs_nd(q, *args)
     scale = np.maximum(np.max(np.abs(want), axis=tuple(range(1, 4)), keepdims=True), 1e-300)

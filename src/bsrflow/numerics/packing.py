@@ -1,8 +1,8 @@
 """Drivers of the packing continuum (issue #18): two discretisations behind one run controller.
 
 * :class:`EulerianPacking` — formulation (a): fields on the grid of :class:`Grid1D`, finite
-  volumes (MUSCL-minmod reconstruction, HLLE fluxes with secant wave speeds, SSP-RK3), the
-  history field δ_max advected with the material in conserved form ρδ_max.
+  volumes (MUSCL-minmod reconstruction, first order at compaction faces, HLLE fluxes with secant
+  wave speeds, SSP-RK3), the history field δ_max advected with the material in conserved form ρδ_max.
 * :class:`LagrangianPacking` — formulation (b): material points moved by ẋ = u, the density
   by characteristics (3.10)–(3.12) between neighbouring points, pair forces between them,
   velocity Verlet; the history lives on the bonds between points.
