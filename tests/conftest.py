@@ -18,3 +18,48 @@ def one_numba_thread():
     numba.set_num_threads(1)
     yield
     numba.set_num_threads(n0)
+
+
+@pytest.fixture
+def run_layer_file(tmp_path):
+    """``run(text, stem, scenario)``: write a layer config, run it with ``bsrflow run --quiet``
+    into ``<stem>.nc`` and open the file, after the checks every 2-D layer run shares: status ok,
+    the scenario, ``rho`` on (time, x, z) in kg m-2, 13 snapshots, ρ >= 0, mass conserved to
+    1e-12.  Returns the open dataset (the caller closes it)."""
+    import xarray as xr
+
+    from bsrflow.cli import main
+
+    def run(text, stem, scenario):
+        cfg = tmp_path / f"{stem}.toml"
+        cfg.write_text(text)
+        out = tmp_path / f"{stem}.nc"
+        assert main(["run", str(cfg), "--out", str(out), "--quiet"]) == 0
+        ds = xr.open_dataset(out)
+        assert ds.attrs["status"] == "ok" and ds.attrs["scenario"] == scenario
+        assert ds["rho"].dims == ("time", "x", "z") and ds["rho"].attrs["units"] == "kg m-2"
+        assert ds.sizes["time"] == 13 and float(ds["rho"].min()) >= 0.0
+        np.testing.assert_allclose(ds["mass"].values, ds["mass"].values[0], rtol=1e-12)
+        return ds
+
+    return run
+
+
+def interrupt_and_resume(cfg, part, between=None):
+    """Run the layer config ``cfg`` into ``part``, interrupted after t = 0.075 s (Ctrl-C), call
+    ``between(checkpoint)`` on the checkpoint it left, then ``--resume`` it; returns the outcome."""
+    import os
+
+    from bsrflow.io.checkpoint import read_checkpoint
+    from bsrflow.io.layer_runner import run_layer_config
+
+    def stop(t):
+        if t > 0.075:
+            raise KeyboardInterrupt()
+
+    with pytest.raises(KeyboardInterrupt, match="--resume"):
+        run_layer_config(cfg, part, progress=stop)
+    assert os.path.exists(f"{part}.ckpt")
+    if between is not None:
+        between(read_checkpoint(f"{part}.ckpt"))
+    return run_layer_config(cfg, part, resume=True)

@@ -1,11 +1,11 @@
 """Issue #19: `bsrflow run` of a 2-D / 3-D layer config: the n-D netCDF file and VTK files,
 one-line refusals, and an interrupted run resumed from its checkpoint bit for bit."""
-import os
 
 import numpy as np
 import pytest
 import xarray as xr
 
+from conftest import interrupt_and_resume
 from bsrflow.cli import main
 from bsrflow.io.layer_runner import load_layer_config, run_layer_config
 from bsrflow.io.netcdf import read_snapshots
@@ -24,18 +24,10 @@ checkpoint_every = 0.05
 pytestmark = pytest.mark.usefixtures("one_numba_thread")
 
 
-def test_layer_config_runs_into_netcdf_and_vtk(tmp_path):
+def test_layer_config_runs_into_netcdf_and_vtk(tmp_path, run_layer_file):
     import meshio
 
-    cfg = tmp_path / "layer.toml"
-    cfg.write_text(CONFIG)
-    out = tmp_path / "layer.nc"
-    assert main(["run", str(cfg), "--out", str(out), "--quiet"]) == 0
-    ds = xr.open_dataset(out)
-    assert ds.attrs["status"] == "ok" and ds.attrs["scenario"] == "layer_2d"
-    assert ds["rho"].dims == ("time", "x", "z") and ds["rho"].attrs["units"] == "kg m-2"
-    assert ds.sizes["time"] == 13 and float(ds["rho"].min()) >= 0.0
-    np.testing.assert_allclose(ds["mass"].values, ds["mass"].values[0], rtol=1e-12)
+    ds = run_layer_file(CONFIG, "layer", "layer_2d")
     last = meshio.read(tmp_path / "layer_vtk" / "layer_000012.vtu")
     np.testing.assert_array_equal(last.cell_data["density [kg/m^2]"][0], ds["rho"].values[-1].ravel())
     ds.close()
@@ -51,6 +43,18 @@ def test_layer_config_runs_into_netcdf_and_vtk(tmp_path):
     ("[layer]\ndim = 2\n[tracers]\npositions = [[0.01]]\n", "tracers.positions"),
     ("[layer]\ndim = 2\n[tracers]\npositions = [[0.01, -0.5]]\n", "tracers.positions"),
     ("[layer]\ndim = 2\n[tracers]\nwhere = 1\n", "tracers.where"),
+    # kind = "packing_bed" (issue #19: the packing continuum in 2-D / 3-D)
+    ("[layer]\nkind = 'packing_bed'\nnosuch = 1\n", "layer.nosuch"),
+    ("[layer]\nkind = 'packing_bed'\ndim = 1\n", "layer.dim"),
+    ("[layer]\nkind = 'packing_bed'\nstiffness_factor = 0\n", "layer.stiffness_factor"),
+    ("[layer]\nkind = 'packing_bed'\nrestitution = 1.5\n", "layer.restitution"),
+    ("[layer]\nkind = 'packing_bed'\nphi_c = 0.8\n", "layer.phi_c"),
+    ("[layer]\nkind = 'packing_bed'\ngamma = -1\n", "layer.gamma"),
+    ("[layer]\nkind = 'packing_bed'\ncfl = 0.3\n", "layer.cfl"),
+    ("[layer]\nkind = 'packing_bed'\ncells_per_diameter = 0\n", "layer.cells_per_diameter"),
+    ("[layer]\nkind = 'packing_bed'\ndomain_height = 0.01\n", "layer.domain_height"),
+    ("[layer]\nkind = 'packing_bed'\n[tracers]\npositions = [[0.01, 0.01, 0.5]]\n", "tracers.positions"),
+    ("[layer]\nkind = 'packing_bed'\n[tracers]\npositions = [[0.01, 0.01]]\n", "tracers.positions"),
 ])
 def test_bad_layer_configs_exit_2_with_one_line(text, field, tmp_path, capsys):
     cfg = tmp_path / "bad.toml"
@@ -58,18 +62,9 @@ def test_bad_layer_configs_exit_2_with_one_line(text, field, tmp_path, capsys):
     assert main(["run", str(cfg), "--out", str(tmp_path / "bad.nc")]) == 2
     err = capsys.readouterr().err.strip()
     assert f"error: {field}" in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "bad.nc").exists()
 
 
-def _interrupt_and_resume(cfg, part):
-    """Run ``cfg`` into ``part``, interrupted after t = 0.075 s (Ctrl-C), then ``--resume`` it."""
-    def stop(t):
-        if t > 0.075:
-            raise KeyboardInterrupt()
-
-    with pytest.raises(KeyboardInterrupt, match="--resume"):
-        run_layer_config(cfg, part, progress=stop)
-    assert os.path.exists(f"{part}.ckpt")
-    return run_layer_config(cfg, part, resume=True)
 
 
 def test_interrupted_layer_run_resumes_bit_for_bit(tmp_path):
@@ -79,7 +74,7 @@ def test_interrupted_layer_run_resumes_bit_for_bit(tmp_path):
     full = tmp_path / "full.nc"
     run_layer_config(cfg, full)
     part = tmp_path / "part.nc"
-    outcome = _interrupt_and_resume(cfg, part)
+    outcome = interrupt_and_resume(cfg, part)
     assert outcome.resumed_from == pytest.approx(0.05)
     a, _ = read_snapshots(full)
     b, _ = read_snapshots(part)
@@ -106,7 +101,7 @@ def test_layer_tracers_are_written_and_resume_bit_for_bit(tmp_path):
     assert np.ptp(rise[:, 2]) > 1e-5                    # the tap moves them
     ds.close()
     part = tmp_path / "part.nc"
-    _interrupt_and_resume(cfg, part)
+    interrupt_and_resume(cfg, part)
     a, _ = read_snapshots(full)
     b, _ = read_snapshots(part)
     for k in ("time", "rho", "tracer_x", "tracer_z"):

@@ -1,12 +1,13 @@
 """Issue #19: the packing continuum in 2-D / 3-D from a config (``[layer] kind = "packing_bed"``):
 the n-D netCDF and VTK output, named fields through the checkpoint and a bit-for-bit resume,
-one-line refusals, the stiffness option, and a bed uniform in y equal to the 2-D bed."""
+the stiffness option (its one-line refusals are in test_layer_run.py), and a bed uniform in y equal to the 2-D bed."""
 import os
 
 import numpy as np
 import pytest
 import xarray as xr
 
+from conftest import interrupt_and_resume
 from bsrflow.cli import main
 from bsrflow.io.layer_runner import load_layer_config, run_layer_config
 from bsrflow.io.netcdf import read_snapshots
@@ -35,20 +36,12 @@ positions = [[0.003, 0.0025], [0.007, 0.0125]]
 """
 
 
-def test_packing_bed_config_runs_into_netcdf_and_vtk(tmp_path):
+def test_packing_bed_config_runs_into_netcdf_and_vtk(tmp_path, run_layer_file):
     import meshio
 
-    cfg = tmp_path / "bed.toml"
-    cfg.write_text(CONFIG)
-    out = tmp_path / "bed.nc"
-    assert main(["run", str(cfg), "--out", str(out), "--quiet"]) == 0
-    ds = xr.open_dataset(out)
-    assert ds.attrs["status"] == "ok" and ds.attrs["scenario"] == "packing_bed_2d"
+    ds = run_layer_file(CONFIG, "bed", "packing_bed_2d")
     assert ds.attrs["kernel"] == "packing"
-    assert ds["rho"].dims == ("time", "x", "z") and ds["rho"].attrs["units"] == "kg m-2"
-    assert ds.sizes["time"] == 13 and float(ds["rho"].min()) >= 0.0
-    np.testing.assert_allclose(ds["mass"].values, ds["mass"].values[0], rtol=1e-12)
-    setup = load_layer_config(cfg).setup
+    setup = load_layer_config(tmp_path / "bed.toml").setup
     assert ds["mass"].values[0] == pytest.approx(setup.mass(), rel=1e-14)
     # the floor moved the bed: it left the floor (the mass centre rose by more than a tenth of d)
     rise = ds["mass_centre"].values - ds["mass_centre"].values[0]
@@ -80,46 +73,17 @@ def test_interrupted_packing_bed_resumes_bit_for_bit(tmp_path):
     run_layer_config(cfg, full)
     part = tmp_path / "part.nc"
 
-    def stop(t):
-        if t > 0.075:
-            raise KeyboardInterrupt()
+    def check(ck):
+        assert set(ck.fields) == {"rho", "momentum_x", "momentum_z", "rho_delta_max"}
+        assert np.max(ck.fields["rho_delta_max"]) > 0.0   # the settled bed is compressed: history carried
+        assert ck.tracers.shape == (2, 2)
 
-    with pytest.raises(KeyboardInterrupt, match="--resume"):
-        run_layer_config(cfg, part, progress=stop)
-    assert os.path.exists(f"{part}.ckpt")
-    from bsrflow.io.checkpoint import read_checkpoint
-    ck = read_checkpoint(f"{part}.ckpt")
-    assert set(ck.fields) == {"rho", "momentum_x", "momentum_z", "rho_delta_max"}
-    assert np.max(ck.fields["rho_delta_max"]) > 0.0   # the settled bed is compressed: history carried
-    outcome = run_layer_config(cfg, part, resume=True)
+    outcome = interrupt_and_resume(cfg, part, between=check)
     assert outcome.resumed_from == pytest.approx(0.05)
     a, _ = read_snapshots(full)
     b, _ = read_snapshots(part)
-    assert ck.tracers.shape == (2, 2)
     for k in ("time", "rho", "u_x", "u_z", "mass_centre", "tracer_x", "tracer_z"):
         np.testing.assert_array_equal(a[k], b[k])
-
-
-@pytest.mark.parametrize("text, field", [
-    ("[layer]\nkind = 'packing_bed'\nnosuch = 1\n", "layer.nosuch"),
-    ("[layer]\nkind = 'packing_bed'\ndim = 1\n", "layer.dim"),
-    ("[layer]\nkind = 'packing_bed'\nstiffness_factor = 0\n", "layer.stiffness_factor"),
-    ("[layer]\nkind = 'packing_bed'\nrestitution = 1.5\n", "layer.restitution"),
-    ("[layer]\nkind = 'packing_bed'\nphi_c = 0.8\n", "layer.phi_c"),
-    ("[layer]\nkind = 'packing_bed'\ngamma = -1\n", "layer.gamma"),
-    ("[layer]\nkind = 'packing_bed'\ncfl = 0.3\n", "layer.cfl"),
-    ("[layer]\nkind = 'packing_bed'\ncells_per_diameter = 0\n", "layer.cells_per_diameter"),
-    ("[layer]\nkind = 'packing_bed'\ndomain_height = 0.01\n", "layer.domain_height"),
-    ("[layer]\nkind = 'packing_bed'\n[tracers]\npositions = [[0.01, 0.01, 0.5]]\n", "tracers.positions"),
-    ("[layer]\nkind = 'packing_bed'\n[tracers]\npositions = [[0.01, 0.01]]\n", "tracers.positions"),
-])
-def test_bad_packing_bed_configs_exit_2_with_one_line(text, field, tmp_path, capsys):
-    cfg = tmp_path / "bad.toml"
-    cfg.write_text(text)
-    assert main(["run", str(cfg), "--out", str(tmp_path / "bad.nc")]) == 2
-    err = capsys.readouterr().err.strip()
-    assert f"error: {field}" in err and len(err.splitlines()) == 1
-    assert not (tmp_path / "bad.nc").exists()
 
 
 def test_reduced_stiffness_is_reported(tmp_path, capsys):

@@ -174,7 +174,7 @@ def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=
         return _run_packing_bed(cfg, out, resume=resume, progress=progress, log=log)
     from ..numerics.solver import Scheme
     from ..numerics.solver_nd import SimulationND
-    from .netcdf import NetCDFWriterND, read_snapshots
+    from .netcdf import read_snapshots
     from .paths import check_output_file
 
     out = check_output_file(out, "--out")
@@ -196,16 +196,8 @@ def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=
         t0, steps0, resumed, wall0 = float(ck.t), int(ck.steps), float(ck.t), float(ck.wall_time)
         u0, rho0 = ck.u, ck.rho
         if tracers is not None:
-            if ck.tracers.shape != tracers.shape:
-                raise ConfigError("--resume", f"{ck_file} holds {ck.tracers.shape[0]} tracers, the config "
-                                  f"{tracers.shape[0]}; run without --resume")
-            tracers = ck.tracers
-        writer = NetCDFWriterND.resume(out, t0, grid, floor, expected_snapshots=save_times.size, n_tracers=n_tr)
-        save_times = save_times[save_times >= t0]
-    else:
-        if os.path.exists(ck_file):
-            os.remove(ck_file)                        # stale: belongs to an earlier run
-        writer = NetCDFWriterND(out, grid, floor, attrs, expected_snapshots=save_times.size, n_tracers=n_tr)
+            tracers = _checkpoint_tracers(ck, tracers, ck_file)
+    writer, save_times = _layer_writer(out, grid, floor, attrs, save_times, n_tr, ck_file, t0 if resume else None)
     vtk_writer = _vtk_writer(vtk_stem, grid, t0 if resume else None)
     observers = [writer] + ([vtk_writer] if vtk_writer else [])
     last = {"t": None}
@@ -234,7 +226,7 @@ def _run_packing_bed(cfg: LayerConfig, out, *, resume=False, progress=None, log=
     the same n-D netCDF file (and VTK files), with checkpoints of its named fields (the
     conserved state, history included) and ``--resume`` bit for bit."""
     from ..numerics.controller import drive_events
-    from .netcdf import NetCDFWriterND, read_snapshots
+    from .netcdf import read_snapshots
     from .paths import check_output_file
 
     out = check_output_file(out, "--out")
@@ -257,19 +249,11 @@ def _run_packing_bed(cfg: LayerConfig, out, *, resume=False, progress=None, log=
         except (KeyError, ValueError) as exc:
             raise ConfigError("--resume", f"the checkpoint's state does not match the config: {exc}") from None
         if tracers is not None:
-            if ck.tracers.shape != tracers.shape:
-                raise ConfigError("--resume", f"{ck_file} holds {ck.tracers.shape[0]} tracers, the config "
-                                  f"{tracers.shape[0]}; run without --resume")
-            disc.set_tracers(ck.tracers)
+            disc.set_tracers(_checkpoint_tracers(ck, tracers, ck_file))
         t0, steps0, resumed, wall0 = float(ck.t), int(ck.steps), float(ck.t), float(ck.wall_time)
         disc.counters[0] = steps0
         disc.steps = steps0
-        writer = NetCDFWriterND.resume(out, t0, grid, floor, expected_snapshots=save_times.size, n_tracers=n_tr)
-        save_times = save_times[save_times >= t0]
-    else:
-        if os.path.exists(ck_file):
-            os.remove(ck_file)                        # stale: belongs to an earlier run
-        writer = NetCDFWriterND(out, grid, floor, attrs, expected_snapshots=save_times.size, n_tracers=n_tr)
+    writer, save_times = _layer_writer(out, grid, floor, attrs, save_times, n_tr, ck_file, t0 if resume else None)
     vtk_writer = _vtk_writer(vtk_stem, grid, t0 if resume else None)
     observers = [writer] + ([vtk_writer] if vtk_writer else [])
     if setup.stiffness_factor < 1.0:
@@ -329,6 +313,28 @@ def _read_layer_checkpoint(ck_file, cfg: LayerConfig) -> Checkpoint:
     if ck.config != cfg.text:
         raise ConfigError("--resume", f"{ck_file} was written by another config; run without --resume")
     return ck
+
+
+def _checkpoint_tracers(ck: Checkpoint, tracers, ck_file):
+    """The checkpoint's tracer positions, refused in one line when their number is not the
+    config's."""
+    if ck.tracers.shape != tracers.shape:
+        raise ConfigError("--resume", f"{ck_file} holds {ck.tracers.shape[0]} tracers, the config "
+                          f"{tracers.shape[0]}; run without --resume")
+    return ck.tracers
+
+
+def _layer_writer(out, grid, floor, attrs, save_times, n_tracers, ck_file, resumed_at):
+    """(the n-D netCDF writer, the save times still to come) of a layer run: a new file (a stale
+    checkpoint of an earlier run removed), or with ``resumed_at`` [s] the file kept up to it."""
+    from .netcdf import NetCDFWriterND
+    if resumed_at is not None:
+        writer = NetCDFWriterND.resume(out, resumed_at, grid, floor, expected_snapshots=save_times.size,
+                                       n_tracers=n_tracers)
+        return writer, save_times[save_times >= resumed_at]
+    if os.path.exists(ck_file):
+        os.remove(ck_file)                            # stale: belongs to an earlier run
+    return NetCDFWriterND(out, grid, floor, attrs, expected_snapshots=save_times.size, n_tracers=n_tracers), save_times
 
 
 def _vtk_writer(vtk_stem, grid, keep_before):

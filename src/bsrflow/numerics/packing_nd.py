@@ -381,8 +381,8 @@ def _tracer_stage(q, tr, vt, st, dt, lo, top, dx, rho_tiny):
     """Stage ``st`` (0, 1, 2) of the tracers' SSP-RK3 (the fields' tableau): the velocity vt[st]
     at the stage position x0, x0 + Δt v0, x0 + Δt (v0 + v1)/4 on the stage state q."""
     buf = np.zeros(3)
+    p = np.empty(3)
     for n in range(tr.shape[0]):
-        p = np.empty(3)
         for cc in range(3):
             p[cc] = tr[n, cc]
             if st == 1:
