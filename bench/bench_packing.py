@@ -3,7 +3,8 @@
     python bench/bench_packing.py --json bench/results.json [--repeats 3] [--ppd 10]
 
 The default column (d = 2.2 cm, 20 spheres, a/d = 0.75, one tap at 0.4 s) from rest to t = 2 s:
-each formulation at the true contact stiffness and with the reduced-stiffness option
+each packing model (the nonlocal interaction, R = d, in the Lagrangian formulation; the local
+limit in both formulations) at the true contact stiffness and with the reduced-stiffness option
 (``suggest_stiffness_factor`` at impact Mach number 0.01), beside the package's DEM of the same
 column, measured in the same run (median of ``--repeats`` wall times after compilation, one
 core).  The result is added under the key ``"packing_column_2s"`` to the JSON file (which
@@ -23,6 +24,7 @@ import time
 
 from _args import positive_int
 from bsrflow.analysis.compare import run_dem_column
+from bsrflow.analysis.compare_packing import PACKING_MODELS, model_label
 from bsrflow.physics.column import ColumnSetup, run_bsr_column, suggest_stiffness_factor
 
 
@@ -47,14 +49,15 @@ def main(argv=None):
     dem_wall, dem_walls, _ = _median_wall(lambda: run_dem_column(base), args.repeats)
     rows = []
     print(f"DEM: {dem_wall:.3f} s (median of {args.repeats})", flush=True)
-    for form in ("eulerian", "lagrangian"):
+    for form, rng in PACKING_MODELS:
         for factor in (1.0, phi):
-            s = base.with_(formulation=form, stiffness_factor=factor)
+            s = base.with_(formulation=form, range_over_d=rng, stiffness_factor=factor)
             wall, walls, run = _median_wall(lambda: run_bsr_column(s), args.repeats)
-            rows.append({"formulation": form, "stiffness_factor": factor, "wall_s": wall, "walls_s": walls,
+            rows.append({"formulation": form, "range_over_d": rng, "model": model_label(form, rng),
+                         "stiffness_factor": factor, "wall_s": wall, "walls_s": walls,
                          "steps": int(run.steps), "wall_over_dem": wall / dem_wall,
                          "top_max_over_d": float(run.top.max() / s.diameter)})
-            print(f"packing {form:10s} stiffness factor {factor:.3g}: {wall:.2f} s, {run.steps} steps, "
+            print(f"packing {model_label(form, rng):16s} stiffness factor {factor:.3g}: {wall:.2f} s, {run.steps} steps, "
                   f"{wall / dem_wall:.1f}x the DEM", flush=True)
     entry = {"column": "d = 0.022 m, 20 spheres, a/d = 0.75, one tap at 0.4 s, 0-2 s",
              "points_per_diameter": args.ppd, "repeats": args.repeats, "dem_wall_s": dem_wall,

@@ -2,13 +2,16 @@
 cells (Eulerian) or material points (Lagrangian) per diameter.
 
     python bench/packing_convergence.py --json bench/results_packing_convergence.json \
-        [--cases d22mm_a0.75,d22mm_a1.0] [--ppd 5,10,20,40] [--formulations eulerian,lagrangian]
+        [--cases d22mm_a0.75,d22mm_a1.0] [--ppd 5,10,20,40] \
+        [--models lagrangian:1,eulerian:0,lagrangian:0] [--formulations eulerian,lagrangian]
 
-For each case and formulation: the top sphere's maximum (in d) and its time, the relative change
-of the top maximum from the next coarser resolution, the mass-centre RMS against the DEM, and
-the Eulerian-Lagrangian relative difference of the top maximum at each resolution.  The
-acceptance of issue #18: a change of less than 1 % between the two finest, and the two
-formulations within 2 %.  Wall times are of this machine (one core; they vary with its load).
+For each case and model (FORMULATION:R_OVER_D, as ``bsrflow compare --kernel packing --models``;
+``--formulations`` keeps the models of those formulations): the top sphere's maximum (in d) and
+its time, the relative change of the top maximum from the next coarser resolution, the
+mass-centre RMS against the DEM, and, for a range run in both formulations, the
+Eulerian-Lagrangian relative difference of the top maximum at each resolution.  The acceptance of
+issue #18: a change of less than 1 % between the two finest, and the two formulations within 2 %.
+Wall times are of this machine (one core; they vary with its load).
 """
 
 from __future__ import annotations
@@ -23,7 +26,7 @@ import numpy as np
 
 from _args import list_of, positive_int
 from bsrflow.analysis.compare import run_dem_column
-from bsrflow.analysis.compare_packing import PACKING_CASES, case_setup
+from bsrflow.analysis.compare_packing import PACKING_CASES, case_setup, model_label, parse_models
 from bsrflow.physics.column import ColumnSetup, run_bsr_column
 
 
@@ -32,6 +35,7 @@ def main(argv=None):
     ap.add_argument("--json", default="bench/results_packing_convergence.json")
     ap.add_argument("--cases", default="d22mm_a0.75,d22mm_a1.0")
     ap.add_argument("--ppd", type=list_of(positive_int), default=[5, 10, 20, 40])
+    ap.add_argument("--models", default="lagrangian:1,eulerian:0,lagrangian:0")
     ap.add_argument("--formulations", default="eulerian,lagrangian")
     args = ap.parse_args(argv)
     names = args.cases.split(",")
@@ -43,6 +47,12 @@ def main(argv=None):
     for f in forms:
         if f not in ("eulerian", "lagrangian"):
             ap.error(f"--formulations: {f!r} is not one of eulerian, lagrangian")
+    try:
+        models = [mdl for mdl in parse_models(args.models) if mdl[0] in forms]
+    except ValueError as exc:
+        ap.error(str(exc))
+    if not models:
+        ap.error("--models / --formulations: no model left to run")
     if any(p < 2 for p in args.ppd):
         ap.error("--ppd: each value must be at least 2")
     os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
@@ -57,34 +67,38 @@ def main(argv=None):
         entry = {"name": name, "dem_top_max_over_d": float(pos[kd, -1] / d), "dem_t_top_max": float(t_d[kd]),
                  "rows": []}
         tops = {}
-        for form in forms:
+        for form, rng in models:
+            label = model_label(form, rng)
             prev = None
             for ppd in args.ppd:
-                s = base.with_(formulation=form, points_per_diameter=ppd)
+                s = base.with_(formulation=form, range_over_d=rng, points_per_diameter=ppd)
                 w = time.perf_counter()
                 r = run_bsr_column(s)
                 wall = time.perf_counter() - w
                 k = int(np.argmax(np.where(r.t >= s.tap_start, r.top, -np.inf)))
                 top = float(r.top[k] / d)
                 rms = float(np.sqrt(np.mean(((np.interp(t_d, r.t, r.mass_centre) - pos.mean(axis=1)) / d) ** 2)))
-                row = {"formulation": form, "ppd": ppd, "top_max_over_d": top, "t_top_max": float(r.t[k]),
+                row = {"formulation": form, "range_over_d": rng, "model": label, "ppd": ppd,
+                       "top_max_over_d": top, "t_top_max": float(r.t[k]),
                        "change_from_coarser": None if prev is None else top / prev - 1.0,
                        "top_max_rel_diff_dem": top / entry["dem_top_max_over_d"] - 1.0,
                        "mass_centre_rms_over_d": rms, "steps": int(r.steps), "wall_s": wall}
                 entry["rows"].append(row)
-                tops[(form, ppd)] = top
+                tops[(form, rng, ppd)] = top
                 prev = top
                 ch = "" if row["change_from_coarser"] is None else f"{100 * row['change_from_coarser']:+.3f}%"
-                print(f"{name} {form:10s} ppd {ppd:3d}: top {top:.3f} d at {row['t_top_max']:.3f} s "
+                print(f"{name} {label:16s} ppd {ppd:3d}: top {top:.3f} d at {row['t_top_max']:.3f} s "
                       f"(change {ch or '-'}), vs DEM {100 * row['top_max_rel_diff_dem']:+.2f}%, mc RMS {rms:.3f} d, "
                       f"{r.steps} steps, {wall:.1f} s", flush=True)
                 with open(args.json, "w") as fh:       # after every run: nothing lost if it dies
                     json.dump(out | {"cases": out["cases"] + [entry]}, fh, indent=2)
-        if len(forms) == 2:
-            entry["eulerian_vs_lagrangian"] = {str(p): tops[("eulerian", p)] / tops[("lagrangian", p)] - 1.0
-                                               for p in args.ppd}
+        both = sorted({r for f, r in models if ("eulerian", r) in models and ("lagrangian", r) in models})
+        for rng in both:
+            key = "eulerian_vs_lagrangian" + ("" if rng == 0.0 else f"_R{rng:g}d")
+            entry[key] = {str(p): tops[("eulerian", rng, p)] / tops[("lagrangian", rng, p)] - 1.0
+                          for p in args.ppd}
             print(f"{name} eulerian/lagrangian - 1: " + ", ".join(
-                f"ppd {p}: {100 * v:+.3f}%" for p, v in ((int(k), v) for k, v in entry["eulerian_vs_lagrangian"].items())))
+                f"ppd {p}: {100 * v:+.3f}%" for p, v in ((int(k), v) for k, v in entry[key].items())))
         out["cases"].append(entry)
         with open(args.json, "w") as fh:
             json.dump(out, fh, indent=2)

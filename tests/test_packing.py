@@ -19,8 +19,10 @@ from bsrflow.physics.motion import HalfSineTaps, Rest
 from bsrflow.physics.packing import (PackingLaw, history_update, packing_force, packing_force_numpy,
                                      packing_wave_speed, single_contact_restitution)
 
-# the column's material (ColumnSetup's defaults: d = 22 mm, ρ_s = 1200 kg/m³, K = 1.366e7 N/m, e = 0.9)
-SETUP = ColumnSetup(kernel_name="packing", formulation="eulerian", points_per_diameter=5)
+# the column's material (ColumnSetup's defaults: d = 22 mm, ρ_s = 1200 kg/m³, K = 1.366e7 N/m, e = 0.9);
+# the local limit (range_over_d = 0) in both formulations: tests/test_packing_nonlocal.py has the
+# nonlocal interaction's
+SETUP = ColumnSetup(kernel_name="packing", formulation="eulerian", points_per_diameter=5, range_over_d=0.0)
 LAW = SETUP.packing_law()
 D, MASS, K1, K2 = LAW.diameter, LAW.particle_mass, LAW.k1, LAW.k2
 RC = LAW.close_packing_density

@@ -117,13 +117,18 @@ def compare_figures(runs: dict, outdir: str):
         top_and_centre(run, dem, os.path.join(outdir, f"{name}_top_centre.png"), label)
 
 
-_FORM_COLOURS = {"eulerian": "C0", "lagrangian": "C2", "seed": "C4"}
+_MODEL_COLOURS = {"lagrangian R=1d": "C2", "eulerian local": "C0", "lagrangian local": "C9", "seed": "C4"}
+
+
+def _model_colour(model: str, k: int) -> str:
+    return _MODEL_COLOURS.get(model, f"C{(5 + k) % 10}")
 
 
 def packing_case_figures(name, setup, runs: dict, dem, outdir: str, seed_run=None):
     """Figures of one case of the packing comparison (:mod:`bsrflow.analysis.compare_packing`):
-    ``runs`` = {formulation: ColumnRun}; ``seed_run``: the calibrated seed-kernel run of the same
-    case, drawn on the same axes when given (``make demo``)."""
+    ``runs`` = {model label (:func:`~bsrflow.analysis.compare_packing.model_label`): ColumnRun};
+    ``seed_run``: the calibrated seed-kernel run of the same case, drawn on the same axes when given
+    (``make demo``)."""
     from .analysis.compare_packing import coarse_grained_density
     os.makedirs(outdir, exist_ok=True)
     s = setup
@@ -135,12 +140,12 @@ def packing_case_figures(name, setup, runs: dict, dem, outdir: str, seed_run=Non
     models = dict(runs)
     if seed_run is not None:
         models["seed"] = seed_run
-    names = {"eulerian": "packing, Eulerian", "lagrangian": "packing, Lagrangian",
-             "seed": "seed kernel (m0, ε calibrated)"}
+    names = {k: ("seed kernel (m0, ε calibrated)" if k == "seed" else f"packing, {k}") for k in models}
+    colours = {k: _model_colour(k, i) for i, k in enumerate(models)}
     # trajectories side by side
     fig, axes = plt.subplots(1, len(models) + 1, figsize=(4.6 * (len(models) + 1), 4.8), sharey=True)
     for ax, (form, run) in zip(axes, models.items()):
-        ax.plot(run.t, run.tracers / d, color=_FORM_COLOURS[form], lw=0.7)
+        ax.plot(run.t, run.tracers / d, color=colours[form], lw=0.7)
         ax.plot(run.t, run.mass_centre / d, color="k", lw=2, label="mass centre")
         ax.set_title(f"{names[form]}: tracers at sphere centres", fontsize=9)
     axes[-1].plot(t_d, pos / d, color="C1", lw=0.7)
@@ -159,7 +164,7 @@ def packing_case_figures(name, setup, runs: dict, dem, outdir: str, seed_run=Non
     # top and mass centre
     fig, ax = plt.subplots(figsize=(9, 5))
     for form, run in models.items():
-        c = _FORM_COLOURS[form]
+        c = colours[form]
         ax.plot(run.t, run.top / d, color=c, lw=1.2, label=f"{names[form]}: top sphere centre")
         ax.plot(run.t, run.mass_centre / d, color=c, lw=1.2, ls="--", label=f"{names[form]}: mass centre")
     ax.plot(t_d, pos[:, -1] / d, color="C1", lw=2, alpha=0.7, label="DEM: top sphere centre")
@@ -188,7 +193,7 @@ def packing_case_figures(name, setup, runs: dict, dem, outdir: str, seed_run=Non
         for form, run in models.items():
             j = int(np.argmin(np.abs(run.t - tt)))
             ylab = run.x + run.floor[j]
-            c = _FORM_COLOURS[form]
+            c = colours[form]
             ax.plot(ylab / d, run.rho[j] / line, color=c, lw=0.8, alpha=0.6, label=f"{names[form]}")
             cg = coarse_grained_density(ylab, run.rho[j] * (run.x[1] - run.x[0]), y, width)
             ax.plot(y / d, cg / line, color=c, lw=1.2, ls="--", label=f"{names[form]}, coarse-grained")

@@ -214,26 +214,37 @@ def add_parser(sub):
             p.add_argument("--kernel", default="seed", help="seed (the seed's kernel, calibrated on one case; "
                            "default) or packing (the contact law's continuum, nothing fitted, both "
                            "formulations, the cases of bsrflow.analysis.compare_packing)")
-            p.add_argument("--formulation", default=None, help="packing only: eulerian, lagrangian or both "
-                           "(default both, comma-separated)")
+            p.add_argument("--models", default=None, metavar="F:R,...",
+                           help="packing only: the models to run, FORMULATION:R_OVER_D comma-separated "
+                           "(default lagrangian:1,eulerian:0,lagrangian:0: the nonlocal interaction over one "
+                           "diameter and the local limit in both formulations; the eulerian formulation "
+                           "supports only R = 0)")
+            p.add_argument("--formulation", default=None, help="packing only: keep only the models of these "
+                           "formulations, eulerian, lagrangian or both (comma-separated)")
             p.add_argument("--cases", default=None, help="packing only: comma-separated case names (default all)")
             p.add_argument("--stiffness-factor", default=None,
                            help="packing only: contact stiffness K times this factor in (0, 1] (default 1), "
                            "or 'auto': per case the factor of impact Mach number 0.01 "
                            "(bsrflow.physics.column.suggest_stiffness_factor; documented cost: top maximum "
-                           "within 1.5 %%, mass-centre RMS within 0.25 d of the true stiffness's (lagrangian), "
-                           "1 %%, 1.2 d (eulerian))")
+                           "within 1 %%, mass-centre RMS within 0.15 d of the true stiffness's (lagrangian, "
+                           "R = d), 1.5 %%, 0.25 d (lagrangian, local), 1 %%, 1.2 d (eulerian))")
         p.add_argument("--diameter", type=float, default=None, help="sphere diameter d [m] (default 0.022)")
         p.add_argument("--ppd", type=int, default=None, help="grid points per diameter (default 10)")
         p.set_defaults(func=_main)
 
 
 def _packing_main(args) -> int:
-    from .compare_packing import PACKING_CASES, compare_packing, format_packing_table
+    from .compare_packing import PACKING_CASES, PACKING_MODELS, compare_packing, format_packing_table, model_label
+    from .compare_packing import parse_models
+    models = PACKING_MODELS if args.models is None else parse_models(args.models)
     forms = tuple((args.formulation or "eulerian,lagrangian").split(","))
     bad = [f for f in forms if f not in ("eulerian", "lagrangian")]
     if bad:
         raise ValueError(f"--formulation = {bad[0]!r} is not one of eulerian, lagrangian")
+    models = tuple(mdl for mdl in models if mdl[0] in forms)
+    if not models:
+        raise ValueError(f"--formulation = {args.formulation!r} leaves none of the models "
+                         f"{', '.join(model_label(*mdl) for mdl in (parse_models(args.models) if args.models else PACKING_MODELS))}")
     cases = PACKING_CASES
     if args.cases:
         names = args.cases.split(",")
@@ -263,10 +274,10 @@ def _packing_main(args) -> int:
         check_output_file(args.json, "--json")
     if args.figures:
         check_output_dir(args.figures, "--figures", create=True)
-    print(f"bsrflow compare --kernel packing: {len(cases)} cases, formulations {', '.join(forms)}, "
+    print(f"bsrflow compare --kernel packing: {len(cases)} cases, models {', '.join(model_label(*mdl) for mdl in models)}, "
           f"{base.points_per_diameter} points per diameter, stiffness factor "
           f"{'auto (impact Mach number 0.01)' if auto else format(base.stiffness_factor, 'g')}")
-    result = compare_packing(base, cases=cases, formulations=forms, figures=args.figures, auto_stiffness=auto)
+    result = compare_packing(base, cases=cases, models=models, figures=args.figures, auto_stiffness=auto)
     print(format_packing_table(result))
     if args.json:
         with open(args.json, "w") as fh:
@@ -280,7 +291,7 @@ def _main(args) -> int:
         raise ValueError(f"--kernel = {args.kernel!r} is not one of seed, packing")
     if getattr(args, "kernel", "seed") == "packing":
         return _packing_main(args)
-    for opt in ("formulation", "cases", "stiffness_factor"):
+    for opt in ("formulation", "models", "cases", "stiffness_factor"):
         if getattr(args, opt, None) is not None:
             raise ValueError(f"--{opt.replace('_', '-')} is an option of --kernel packing only")
     kw = {}
@@ -305,7 +316,8 @@ def _main(args) -> int:
     print(format_table(result))
     if args.command == "demo":
         from .compare_packing import demo_packing, format_demo_table
-        print("the packing continuum on the same cases (nothing fitted), both formulations:")
+        print("the packing continuum on the same cases (nothing fitted): the nonlocal interaction (lagrangian) "
+              "and the local limit (eulerian):")
         result = demo_packing(result, base, figures=os.path.join(args.out, "figures_packing"))
         print(format_demo_table(result))
     if json_path:

@@ -31,8 +31,41 @@ import numpy as np
 
 from ..physics.column import ColumnSetup, run_bsr_column
 
-__all__ = ["PACKING_CASES", "case_setup", "compare_packing", "coarse_grained_density", "format_packing_table",
-           "demo_packing", "format_demo_table"]
+__all__ = ["PACKING_CASES", "PACKING_MODELS", "case_setup", "compare_packing", "coarse_grained_density",
+           "format_packing_table", "demo_packing", "format_demo_table", "model_label", "parse_models"]
+
+PACKING_MODELS = (("lagrangian", 1.0), ("eulerian", 0.0), ("lagrangian", 0.0))
+"""The packing models compared by default, (formulation, R/d): the nonlocal interaction (R = d,
+the package's packing continuum; Lagrangian only) and the local limit in both formulations."""
+
+
+def model_label(formulation: str, range_over_d: float) -> str:
+    """'lagrangian R=1d' or 'eulerian local' (the local limit, R = 0)."""
+    return f"{formulation} " + ("local" if range_over_d == 0.0 else f"R={range_over_d:g}d")
+
+
+def parse_models(text: str):
+    """'lagrangian:1,eulerian:0' -> (("lagrangian", 1.0), ("eulerian", 0.0)); ValueError naming
+    ``--models`` on bad input (an unknown formulation, a range outside [0, 4], or a nonlocal range
+    with the Eulerian formulation, which supports only 0)."""
+    from ..physics.packing import MAX_RANGE_OVER_D
+    out = []
+    for item in text.split(","):
+        form, _, rng = item.strip().partition(":")
+        if form not in ("eulerian", "lagrangian"):
+            raise ValueError(f"--models: {item!r}: the formulation is not one of eulerian, lagrangian "
+                             "(format FORMULATION:R_OVER_D, comma-separated)")
+        try:
+            r = float(rng) if rng else (1.0 if form == "lagrangian" else 0.0)
+        except ValueError:
+            raise ValueError(f"--models: {item!r}: the range {rng!r} is not a number in [0, {MAX_RANGE_OVER_D:g}]") from None
+        if not (math.isfinite(r) and 0.0 <= r <= MAX_RANGE_OVER_D):
+            raise ValueError(f"--models: {item!r}: the range {r!r} is outside the valid range [0, {MAX_RANGE_OVER_D:g}]")
+        if form == "eulerian" and r != 0.0:
+            raise ValueError(f"--models: {item!r}: the range is outside the valid range [0, 0] of the eulerian "
+                             "formulation (the nonlocal interaction is the lagrangian formulation's)")
+        out.append((form, r))
+    return tuple(out)
 
 PACKING_CASES = ([dict(name=f"d{int(round(d * 1000))}mm_a{a}", diameter=d, a_over_d=a, n_taps=1)
                   for d in (0.005, 0.010, 0.022) for a in (0.5, 0.75, 1.0, 1.5)]
@@ -107,7 +140,8 @@ def _run_against_dem(name, s, dem, dem_m, dem_wall):
     m = _metrics(run.t, run.top, run.mass_centre, s)
     rms = float(np.sqrt(np.mean(((np.interp(t_d, run.t, run.mass_centre) - pos.mean(axis=1)) / d) ** 2)))
     entry = {
-        "name": name, "formulation": s.formulation, "d": d, "a_over_d": s.a_over_d, "taps": s.n_taps,
+        "name": name, "formulation": s.formulation, "range_over_d": s.interaction_range(),
+        "model": model_label(s.formulation, s.interaction_range()), "d": d, "a_over_d": s.a_over_d, "taps": s.n_taps,
         "tap_period": s.tap_period, "t_end": s.t_end, "points_per_diameter": s.points_per_diameter,
         "stiffness_factor": s.stiffness_factor, "calibrated_on": False,
         "bsr": m | {"wall_s": wall, "steps": run.steps,
@@ -119,10 +153,11 @@ def _run_against_dem(name, s, dem, dem_m, dem_wall):
     return run, entry
 
 
-def compare_packing(base: ColumnSetup | None = None, cases=None, formulations=("eulerian", "lagrangian"),
-                    figures=None, log=print, auto_stiffness=False):
-    """Run the comparison; returns the JSON-ready dict (module docstring).  ``auto_stiffness``:
-    each case at the reduced stiffness of impact Mach number 0.01 (``suggest_stiffness_factor``)."""
+def compare_packing(base: ColumnSetup | None = None, cases=None, models=PACKING_MODELS, figures=None, log=print,
+                    auto_stiffness=False):
+    """Run the comparison; returns the JSON-ready dict (module docstring).  ``models``: the
+    (formulation, R/d) pairs to run (:data:`PACKING_MODELS`).  ``auto_stiffness``: each case at the
+    reduced stiffness of impact Mach number 0.01 (``suggest_stiffness_factor``)."""
     from ..physics.column import suggest_stiffness_factor
     from .compare import run_dem_column
     base = base or ColumnSetup()
@@ -138,12 +173,13 @@ def compare_packing(base: ColumnSetup | None = None, cases=None, formulations=("
         dem_wall = time.perf_counter() - w
         dem_m = _metrics(dem[0], dem[1][:, -1], dem[1].mean(axis=1), s0)
         runs = {}
-        for form in formulations:
-            run, entry = _run_against_dem(c["name"], s0.with_(formulation=form), dem, dem_m, dem_wall)
-            runs[form] = run
+        for form, rng in models:
+            run, entry = _run_against_dem(c["name"], s0.with_(formulation=form, range_over_d=rng), dem, dem_m,
+                                          dem_wall)
+            runs[entry["model"]] = run
             out_cases.append(entry)
             if log:
-                log(f"  {c['name']:22s} {form:10s}: top {entry['bsr']['top_max_over_d']:.2f} d at "
+                log(f"  {c['name']:22s} {entry['model']:16s}: top {entry['bsr']['top_max_over_d']:.2f} d at "
                     f"{entry['bsr']['t_top_max']:.3f} s | DEM {dem_m['top_max_over_d']:.2f} d at "
                     f"{dem_m['t_top_max']:.3f} s | dtop {100 * entry['top_max_rel_diff']:+.1f}% rise "
                     f"{100 * entry['rise_rel_diff']:+.1f}% | mc RMS {entry['mass_centre_rms_over_d']:.3f} d | "
@@ -163,18 +199,22 @@ def compare_packing(base: ColumnSetup | None = None, cases=None, formulations=("
 
 def format_packing_table(result) -> str:
     lines = ["packing continuum against the DEM, nothing fitted (fitted_constants = {})",
-             f"{'case':22s} {'formulation':11s} {'top/d':>7s} {'t [s]':>6s} {'DEM top/d':>9s} {'t [s]':>6s} "
+             f"{'case':22s} {'model':16s} {'top/d':>7s} {'t [s]':>6s} {'DEM top/d':>9s} {'t [s]':>6s} "
              f"{'dtop':>7s} {'dt':>7s} {'drise':>7s} {'mc RMS/d':>8s}"]
     for c in result["cases"]:
-        lines.append(f"{c['name']:22s} {c['formulation']:11s} {c['bsr']['top_max_over_d']:7.2f} "
+        lines.append(f"{c['name']:22s} {c['model']:16s} {c['bsr']['top_max_over_d']:7.2f} "
                      f"{c['bsr']['t_top_max']:6.3f} {c['dem']['top_max_over_d']:9.2f} {c['dem']['t_top_max']:6.3f} "
                      f"{100 * c['top_max_rel_diff']:6.1f}% {100 * c['t_top_max_rel_diff']:6.1f}% "
                      f"{100 * c['rise_rel_diff']:6.1f}% {c['mass_centre_rms_over_d']:8.3f}")
     return "\n".join(lines)
 
 
-def demo_packing(seed_result: dict, base: ColumnSetup, figures=None, formulations=("eulerian", "lagrangian"),
-                 log=print) -> dict:
+DEMO_MODELS = (("lagrangian", 1.0), ("eulerian", 0.0))
+"""The packing models of ``make demo``: the nonlocal interaction (Lagrangian) and the local limit in
+the Eulerian formulation (the discretisation of the 2-D/3-D solvers)."""
+
+
+def demo_packing(seed_result: dict, base: ColumnSetup, figures=None, models=DEMO_MODELS, log=print) -> dict:
     """``make demo``: the packing continuum (nothing fitted) on the cases of the seed comparison
     ``seed_result`` (:func:`bsrflow.analysis.compare.compare`), with the calibrated seed kernel
     and the DEM on the same figures; returns ``seed_result`` with ``"packing"`` (a list of case
@@ -190,13 +230,13 @@ def demo_packing(seed_result: dict, base: ColumnSetup, figures=None, formulation
         dem_wall = time.perf_counter() - w
         dem_m = _metrics(dem[0], dem[1][:, -1], dem[1].mean(axis=1), s0)
         runs = {}
-        for form in formulations:
-            run, entry = _run_against_dem(c["name"], s0.with_(kernel_name="packing", formulation=form), dem, dem_m,
-                                          dem_wall)
-            runs[form] = run
+        for form, rng in models:
+            run, entry = _run_against_dem(c["name"], s0.with_(kernel_name="packing", formulation=form,
+                                                              range_over_d=rng), dem, dem_m, dem_wall)
+            runs[entry["model"]] = run
             entries.append(entry)
             if log:
-                log(f"  packing {form:10s} {c['name']}: top {entry['bsr']['top_max_over_d']:.2f} d at "
+                log(f"  packing {entry['model']:16s} {c['name']}: top {entry['bsr']['top_max_over_d']:.2f} d at "
                     f"{entry['bsr']['t_top_max']:.3f} s, mc RMS {entry['mass_centre_rms_over_d']:.3f} d, "
                     f"{entry['bsr']['wall_s']:.1f} s")
         if figures:
@@ -211,12 +251,12 @@ def demo_packing(seed_result: dict, base: ColumnSetup, figures=None, formulation
 
 def format_demo_table(result) -> str:
     """One table: the seed kernel (calibrated) and the packing continuum (nothing fitted)."""
-    lines = [f"{'case':18s} {'model':32s} {'top/d':>7s} {'t [s]':>6s} {'DEM top/d':>9s} {'t [s]':>6s} "
+    lines = [f"{'case':18s} {'model':40s} {'top/d':>7s} {'t [s]':>6s} {'DEM top/d':>9s} {'t [s]':>6s} "
              f"{'dtop':>7s} {'dt':>7s} {'mc RMS/d':>8s}"]
     rows = [(c, "seed kernel (m0, eps fitted)") for c in result["cases"]]
-    rows += [(c, f"packing {c['formulation']} (none fitted)") for c in result.get("packing", [])]
+    rows += [(c, f"packing {c.get('model', c['formulation'])} (none fitted)") for c in result.get("packing", [])]
     for c, model in sorted(rows, key=lambda r: r[0]["name"]):
-        lines.append(f"{c['name']:18s} {model:32s} {c['bsr']['top_max_over_d']:7.2f} {c['bsr']['t_top_max']:6.3f} "
+        lines.append(f"{c['name']:18s} {model:40s} {c['bsr']['top_max_over_d']:7.2f} {c['bsr']['t_top_max']:6.3f} "
                      f"{c['dem']['top_max_over_d']:9.2f} {c['dem']['t_top_max']:6.3f} "
                      f"{100 * c['top_max_rel_diff']:6.1f}% {100 * c['t_top_max_rel_diff']:6.1f}% "
                      f"{c['mass_centre_rms_over_d']:8.3f}")

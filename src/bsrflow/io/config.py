@@ -149,10 +149,13 @@ FIELDS: tuple[_Field, ...] = (
     _Field("model", "stiffness_factor", "float", 1.0, "packing only: the contact stiffness used is K "
            "times this factor (1: the DEM's own; smaller runs faster at a documented cost in "
            "accuracy)", "", 0, 1, lo_open=True),
+    _Field("model", "range_over_d", "float", None, "packing only: the interaction range R in sphere "
+           "diameters (default, when absent: 1 with the lagrangian formulation, the nonlocal interaction over "
+           "one diameter; 0, the local limit, with the eulerian formulation, which supports only 0)", "", 0, 4),
     _Field("model", "stiffness_mach", "float", 0.0, "packing only: if > 0, choose the stiffness "
-           "factor so that the impact Mach number 3 a w / c is this (0.01: top maximum within 1.5 % and "
-           "mass-centre RMS within 0.25 d of the true stiffness's (lagrangian), 1 % and 1.2 d (eulerian), "
-           "measured; 0: off)", "", 0, 1),
+           "factor so that the impact Mach number 3 a w / c is this (0.01: top maximum within 1 % and "
+           "mass-centre RMS within 0.15 d of the true stiffness's (lagrangian, R = d), 1.5 % and 0.25 d "
+           "(lagrangian, local), 1 % and 1.2 d (eulerian), measured; 0: off)", "", 0, 1),
     # [tap] -- half-sine displacement pulses of the floor
     _Field("tap", "a_over_d", "float", 0.75, "tap amplitude a in units of the sphere diameter "
            "(0: no tap)", "", 0, 20),
@@ -178,9 +181,10 @@ FIELDS: tuple[_Field, ...] = (
            "average every step, CFL 0.5) or \"accurate\" (four-stage RK4 rk4_0.4_0.25, CFL 0.2, "
            "sensor-switched dissipation)",
            choices=_SCHEMES),
-    _Field("numerics", "formulation", "str", "eulerian", "packing only: \"eulerian\" (finite volumes "
-           "on the grid) or \"lagrangian\" (material points, density by characteristics); the seed "
-           "kernel is Eulerian", choices=("eulerian", "lagrangian")),
+    _Field("numerics", "formulation", "str", None, "\"eulerian\" (finite volumes on the grid) or "
+           "\"lagrangian\" (material points, density by characteristics; packing only); default, when "
+           "absent: lagrangian for model.kernel = \"packing\", eulerian for the seed kernel (the only "
+           "formulation it has)", choices=("eulerian", "lagrangian")),
     _Field("numerics", "points_per_diameter", "int", 10, "grid cells per sphere diameter (the "
            "interaction radius d must span at least 2 cells)", "", 2, 1000),
     _Field("numerics", "cfl", "float", None, "Courant number override (default: the preset's); "
@@ -223,7 +227,7 @@ _SETUP_NAMES = {
     "stepper": "numerics.stepper", "rtol": "numerics.rtol", "impulses": "tap.impulses",
     "period": "tap.period", "start": "tap.start", "amplitude": "tap.a_over_d",
     "kernel_name": "model.kernel", "formulation": "numerics.formulation",
-    "stiffness_factor": "model.stiffness_factor",
+    "stiffness_factor": "model.stiffness_factor", "range_over_d": "model.range_over_d",
 }
 
 
@@ -489,10 +493,13 @@ class Config:
                                   "have their own schemes)", v["numerics.scheme"])
             self.column_setup(domain_height=None)
             return self._validate_domain()
-        if v["numerics.formulation"] != "eulerian":
+        if v["numerics.formulation"] not in (None, "eulerian"):
             raise ConfigError("numerics.formulation", f'"{v["numerics.formulation"]}" is an option of '
                               'model.kernel = "packing"; the seed kernel is solved on the grid (valid: "eulerian")',
                               v["numerics.formulation"])
+        if v["model.range_over_d"] is not None:
+            raise ConfigError("model.range_over_d", f"{v['model.range_over_d']!r}: an option of "
+                              'model.kernel = "packing" (the seed kernel\'s range is d)', v["model.range_over_d"])
         if v["model.stiffness_mach"] != 0.0:
             raise ConfigError("model.stiffness_mach", f"{v['model.stiffness_mach']!r}: an option of "
                               'model.kernel = "packing"', v["model.stiffness_mach"])
@@ -577,6 +584,15 @@ class Config:
                            f"{H:.4g} m tall (at most {_MAX_HEIGHT:g} m)", v["tap.a_over_d"], rng)
 
     # derived objects ----------------------------------------------------------------------------
+    @property
+    def formulation(self) -> str:
+        """``numerics.formulation``, or when absent the kernel's default: "lagrangian" for the
+        packing kernel, "eulerian" for the seed kernel."""
+        f = self._values["numerics.formulation"]
+        if f is not None:
+            return f
+        return "lagrangian" if self._values["model.kernel"] == "packing" else "eulerian"
+
     def column_setup(self, **kw):
         """:class:`bsrflow.physics.column.ColumnSetup` with these values (keywords override)."""
         from ..physics.column import ColumnSetup
@@ -589,10 +605,11 @@ class Config:
             n_taps=v["tap.n_taps"], tap_period=v["tap.period"], t_end=v["run.t_end"],
             points_per_diameter=v["numerics.points_per_diameter"], scheme=v["numerics.scheme"],
             save_every=v["run.save_every"], domain_height=v["numerics.domain_height"],
-            impulses=v["tap.impulses"], kernel_name=v["model.kernel"], formulation=v["numerics.formulation"],
+            impulses=v["tap.impulses"], kernel_name=v["model.kernel"], formulation=self.formulation,
             stiffness_factor=v["model.stiffness_factor"])
         if v["model.kernel"] == "packing":
             args["cfl"] = v["numerics.cfl"]
+            args["range_over_d"] = v["model.range_over_d"]
         args.update(kw)
         try:
             setup = ColumnSetup(**args)
@@ -696,6 +713,7 @@ class Config:
                 val = self._values[f.name]
                 if val is None:
                     example = {"run.checkpoint_every": "0.1", "numerics.cfl": "0.5", "numerics.stepper": '"bs32"', "numerics.rtol": "1e-4",
+                               "model.range_over_d": "1.0", "numerics.formulation": '"lagrangian"',
                                "numerics.atol": "[1e-3, 1e-3]", "numerics.domain_height": "3.5"}[f.name]
                     lines.append(f"# {f.key} = {example}")
                 else:

@@ -32,6 +32,7 @@ from ..physics.packing import PackingLaw
 from .grid import Grid1D
 from .solver import SimulationError
 from . import packing_kernels as pk
+from . import packing_nonlocal as pnl
 
 __all__ = ["EulerianPacking", "LagrangianPacking", "PackingResult", "PackingError", "run_packing",
            "FORMULATIONS"]
@@ -107,6 +108,10 @@ class EulerianPacking(_Base):
     def __init__(self, law, grid, n_spheres, motion, gravity, points_per_diameter, cfl=0.4, rho0=None):
         super().__init__(law, grid, n_spheres, motion, gravity, points_per_diameter, cfl)
         n = grid.n_cells
+        if law.is_nonlocal:
+            raise ValueError(f"range_over_d = {law.range_over_d!r} is outside the valid range [0, 0] of the "
+                             "eulerian packing formulation (the nonlocal interaction is the lagrangian "
+                             "formulation's; docs/model.md)")
         self.q = np.zeros((3, n + 2 * pk.NG))
         if rho0 is not None:
             self.q[pk.RHO, pk.NG:pk.NG + n] = rho0
@@ -155,11 +160,16 @@ class EulerianPacking(_Base):
 
 class LagrangianPacking(_Base):
     """Formulation (b): material points (module docstring); ``points_per_diameter`` points per
-    sphere, each of mass m/ppd, starting at rest at the centres of equal slices of the column."""
+    sphere, each of mass m/ppd, starting at rest at the centres of equal slices of the column.
+    With the local law (``range_over_d`` = 0) pair forces between neighbours, the history on the
+    bond beneath each point; with the nonlocal law bonds up to L = round(ppd R/d) points apart,
+    each with its own history (fields ``delta_max`` of shape (L, points);
+    :mod:`bsrflow.numerics.packing_nonlocal`), Δt = cfl·2/ω_max of the bond network."""
 
     name = "lagrangian"
     cfl_limit = 0.9
-    supports = frozenset({"cfl", "points_per_diameter", "stiffness_factor", "save_every", "checkpoint_every"})
+    supports = frozenset({"cfl", "points_per_diameter", "stiffness_factor", "range_over_d", "save_every",
+                          "checkpoint_every"})
 
     def __init__(self, law, grid, n_spheres, motion, gravity, points_per_diameter, cfl=0.5):
         super().__init__(law, grid, n_spheres, motion, gravity, points_per_diameter, cfl)
@@ -167,10 +177,21 @@ class LagrangianPacking(_Base):
         h = law.diameter / self.ppd
         self.x = (np.arange(n_pts) + 0.5) * h
         self.v = np.zeros(n_pts)
-        self.hist = np.zeros(n_pts)
         self.mu = law.particle_mass / self.ppd
-        # Verlet is stable for ω_max Δt < 2 with ω_max = 2 ppd √(K2/m): Δt = cfl h / c
-        self.dt_max = self.cfl * h / law.wave_speed_bound()
+        if law.is_nonlocal:
+            # bonds up to L points apart, their histories (L, points); Verlet is stable for
+            # ω_max Δt < 2: Δt = cfl · 2/ω_max (Gershgorin bound of the bond network)
+            self.weights = law.bond_weights(self.ppd)
+            if len(self.weights) > n_pts:
+                raise ValueError(f"range_over_d = {law.range_over_d!r} is outside the valid range "
+                                 f"(0, {self.n_spheres:g}] for a column of {self.n_spheres} spheres")
+            self.hist = np.zeros((len(self.weights), n_pts))
+            self.dt_max = self.cfl * pnl.nonlocal_time_step_bound(self.weights, self.ppd, law.k2, law.particle_mass)
+        else:
+            self.weights = None
+            self.hist = np.zeros(n_pts)
+            # Verlet is stable for ω_max Δt < 2 with ω_max = 2 ppd √(K2/m): Δt = cfl h / c
+            self.dt_max = self.cfl * h / law.wave_speed_bound()
         self.counters = np.zeros(3, dtype=np.int64)
         self.point_masses = (np.arange(n_pts) + 0.5) * self.mu
 
@@ -184,9 +205,14 @@ class LagrangianPacking(_Base):
     def advance(self, t, t_stop):
         law = self.law
         self.counters[1:] = 0
-        t = pk.lagrangian_advance(self.x, self.v, self.hist, float(t), float(t_stop), self.dt_max, self.mu,
-                                  float(self.ppd), law.diameter, law.k1, law.k2, self._fn, self._params,
-                                  self.gravity, self.counters)
+        if self.weights is None:
+            t = pk.lagrangian_advance(self.x, self.v, self.hist, float(t), float(t_stop), self.dt_max, self.mu,
+                                      float(self.ppd), law.diameter, law.k1, law.k2, self._fn, self._params,
+                                      self.gravity, self.counters)
+        else:
+            t = pnl.nonlocal_lagrangian_advance(self.x, self.v, self.hist, self.weights, float(t), float(t_stop),
+                                               self.dt_max, self.mu, float(self.ppd), law.diameter, law.k1,
+                                               law.k2, self._fn, self._params, self.gravity, self.counters)
         self.steps = int(self.counters[0])
         if self.counters[1]:
             raise PackingError(f"material points crossed (a bond length reached 0) at t = {t:.6g} s", t)

@@ -1,8 +1,9 @@
 """Plain NumPy reference of the packing continuum's compiled pieces (issue #18).
 
 A vectorised twin, written from the formulas stated in the docstrings of
-:mod:`bsrflow.physics.packing` and :mod:`bsrflow.numerics.packing_kernels` (it calls none of the
-compiled functions), used by ``tests/test_packing.py`` to check the compiled code to 1e-12
+:mod:`bsrflow.physics.packing`, :mod:`bsrflow.numerics.packing_kernels` and
+:mod:`bsrflow.numerics.packing_nonlocal` (it calls none of the compiled functions), used by
+``tests/test_packing.py`` and ``tests/test_packing_nonlocal.py`` to check the compiled code to 1e-12
 relative to the scale of the terms.  Every function is pure: it returns new arrays.
 
 Eulerian state: ``q`` of shape (3, n + 4), rows ρ [kg/m], ρu [kg/s], ρδ_max [kg], two ghost
@@ -25,7 +26,8 @@ __all__ = ["RHO", "MOM", "HIST", "NG", "contact_force", "history_update", "wave_
            "hlle_flux", "fill_ghosts", "fv_rhs", "fv_post_step", "fv_time_step", "active_top",
            "ssp_rk3_step", "bond_lengths", "lagrangian_forces", "lagrangian_accelerations",
            "lagrangian_history", "verlet_step", "hlle_waves", "hlle_combine", "fv_rhs_nd", "no_tension",
-           "tracer_velocity_numpy", "compaction_face"]
+           "tracer_velocity_numpy", "compaction_face", "nonlocal_bond_lengths", "nonlocal_lagrangian_accelerations",
+           "nonlocal_lagrangian_history", "nonlocal_verlet_step"]
 
 RHO, MOM, HIST = 0, 1, 2
 NG = 2
@@ -327,6 +329,50 @@ def verlet_step(x, v, hist, t, dt, accel, mu, ppd, d, k1, k2):
     f1 = lagrangian_forces(x_new, hist, ppd, d, k1, k2)
     v_new = v_half + 0.5 * dt * lagrangian_accelerations(f1, mu, accel(t + dt))
     return x_new, v_new, lagrangian_history(x_new, hist, ppd, d)
+
+
+# ------------------------------------------------------------------------------------------------
+# Lagrangian material points, nonlocal interaction (numerics/packing_nonlocal.py)
+# ------------------------------------------------------------------------------------------------
+def nonlocal_bond_lengths(x, lag):
+    """Length [m] of the bond of lag ℓ beneath each point j: x_j − x_{j−ℓ}, or for j < ℓ
+    x_j + x_{ℓ−1−j} (to the mirror image of point ℓ − 1 − j below the floor)."""
+    x = np.asarray(x, dtype=float)
+    j = np.arange(x.size)
+    lower = np.where(j >= lag, x[np.maximum(j - lag, 0)], -x[np.clip(lag - 1 - j, 0, x.size - 1)])
+    return x - lower
+
+
+def nonlocal_lagrangian_accelerations(x, hist, weights, ppd, d, k1, k2, mu):
+    """Accelerations [m/s²] from the bonds (no gravity): bond (ℓ, j) pushes point j up and point
+    j − ℓ down (its mirror image's reaction goes to the floor) with w_ℓ P(δ, hist[ℓ−1, j]),
+    δ = d − (ppd/ℓ)·length.  Returns (accelerations, bond forces (L, M) [N])."""
+    x = np.asarray(x, dtype=float)
+    M = x.size
+    acc = np.zeros(M)
+    forces = np.zeros((len(weights), M))
+    for lag in range(1, len(weights) + 1):
+        f = weights[lag - 1] * contact_force(d - ppd / lag * nonlocal_bond_lengths(x, lag), hist[lag - 1], k1, k2)
+        forces[lag - 1] = f
+        acc += f
+        acc[:M - lag] -= f[lag:]
+    return acc / mu, forces
+
+
+def nonlocal_lagrangian_history(x, hist, ppd, d):
+    """History of every bond (ℓ, j) after a step."""
+    return np.array([history_update(d - ppd / lag * nonlocal_bond_lengths(x, lag), hist[lag - 1])
+                     for lag in range(1, hist.shape[0] + 1)])
+
+
+def nonlocal_verlet_step(x, v, hist, weights, t, dt, accel, mu, ppd, d, k1, k2):
+    """One velocity-Verlet step of the nonlocal form (as :func:`verlet_step`).  Returns (x, v, hist)."""
+    a0, _ = nonlocal_lagrangian_accelerations(x, hist, weights, ppd, d, k1, k2, mu)
+    v_half = v + 0.5 * dt * (a0 + accel(t))
+    x_new = x + dt * v_half
+    a1, _ = nonlocal_lagrangian_accelerations(x_new, hist, weights, ppd, d, k1, k2, mu)
+    v_new = v_half + 0.5 * dt * (a1 + accel(t + dt))
+    return x_new, v_new, nonlocal_lagrangian_history(x_new, hist, ppd, d)
 
 
 # ------------------------------------------------------------------------------------------------

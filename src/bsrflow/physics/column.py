@@ -49,6 +49,11 @@ only for d of about 2.1-2.3 cm (seed-notes problem 2; `bsrflow compare --sweep-d
 this); we take 2.2 cm.  An inference, not a quoted value."""
 
 
+DEFAULT_RANGE_OVER_D = 1.0
+"""The packing interaction's default range R/d in the Lagrangian formulation: one diameter, the
+range of a sphere's contacts (docs/model.md, "The nonlocal interaction")."""
+
+
 @dataclass
 class ColumnSetup:
     """Parameters of the tapped column (SI units).
@@ -64,7 +69,10 @@ class ColumnSetup:
     "packing" (the contact law's continuum, :mod:`bsrflow.physics.packing`; m0, ε and scheme
     do not enter); formulation: "eulerian" or "lagrangian" (packing only); stiffness_factor in
     (0, 1]: the packing law's stiffness K·factor (the reduced-stiffness option); cfl: the
-    packing discretisation's CFL number (default 0.4 Eulerian, 0.5 Lagrangian).
+    packing discretisation's CFL number (default 0.4 Eulerian, 0.5 Lagrangian); range_over_d: the
+    packing interaction's range R/d (:meth:`interaction_range`; None: the formulation's default,
+    1 (nonlocal, R = d) for the Lagrangian formulation, 0 (the local limit) for the Eulerian one,
+    which supports only 0).
     """
 
     n_spheres: int = 20
@@ -90,6 +98,7 @@ class ColumnSetup:
     formulation: str = "eulerian"
     stiffness_factor: float = 1.0
     cfl: float | None = None
+    range_over_d: float | None = None
 
     def __post_init__(self):
         checks = [
@@ -135,6 +144,21 @@ class ColumnSetup:
         if self.kernel_name == "seed" and self.stiffness_factor != 1.0:
             raise ValueError("stiffness_factor is an option of the packing kernel only (the seed kernel's "
                              "stiffness is set by m0)")
+        if self.range_over_d is not None:
+            from .packing import MAX_RANGE_OVER_D
+            if self.kernel_name == "seed":
+                raise ValueError("range_over_d is an option of the packing kernel only (the seed kernel's range "
+                                 "is d)")
+            if not (np.isfinite(self.range_over_d) and 0.0 <= self.range_over_d <= MAX_RANGE_OVER_D):
+                raise ValueError(f"range_over_d = {self.range_over_d!r} is outside the valid range "
+                                 f"[0, {MAX_RANGE_OVER_D:g}]")
+            if self.formulation == "eulerian" and self.range_over_d != 0.0:
+                raise ValueError(f"range_over_d = {self.range_over_d!r} is outside the valid range [0, 0] of the "
+                                 "eulerian packing formulation (the nonlocal interaction is the lagrangian "
+                                 "formulation's)")
+            if self.range_over_d > self.n_spheres:
+                raise ValueError(f"range_over_d = {self.range_over_d!r} is outside the valid range "
+                                 f"[0, {self.n_spheres}] for a column of {self.n_spheres} spheres")
         if self.cfl is not None:
             if self.kernel_name == "seed":
                 raise ValueError("cfl is an option of the packing kernel only (the seed kernel's CFL number "
@@ -197,10 +221,19 @@ class ColumnSetup:
         return walton_braun_from_contact(self.stiffness, self.particle_mass, self.m0, self.kernel_dissipation,
                                          self.diameter)
 
+    def interaction_range(self) -> float:
+        """R/d of the packing interaction: ``range_over_d``, or if None the formulation's default,
+        1 for the Lagrangian formulation (the nonlocal interaction over one diameter,
+        docs/model.md) and 0 (the local limit) for the Eulerian one."""
+        if self.range_over_d is not None:
+            return float(self.range_over_d)
+        return DEFAULT_RANGE_OVER_D if self.formulation == "lagrangian" else 0.0
+
     def packing_law(self):
         """The packing interaction of this column (:class:`bsrflow.physics.packing.PackingLaw`)."""
         from .packing import PackingLaw
-        return PackingLaw(self.stiffness, self.restitution, self.diameter, self.density, self.stiffness_factor)
+        return PackingLaw(self.stiffness, self.restitution, self.diameter, self.density, self.stiffness_factor,
+                          self.interaction_range())
 
     def packing_discretisation(self):
         """The packing continuum's discretisation of this column, at rest at close packing
@@ -251,21 +284,34 @@ STIFFNESS_MACH = 0.01
 """Default impact Mach number of the reduced-stiffness option (:func:`suggest_stiffness_factor`)."""
 
 STIFFNESS_ERROR_BOUNDS = {
-    "lagrangian": {"top_max_rel": 0.015, "mass_centre_rms_over_d": 0.25},
-    "eulerian": {"top_max_rel": 0.01, "mass_centre_rms_over_d": 1.2},
+    "lagrangian R=1d": {"top_max_rel": 0.01, "mass_centre_rms_over_d": 0.15},
+    "lagrangian local": {"top_max_rel": 0.015, "mass_centre_rms_over_d": 0.25},
+    "eulerian local": {"top_max_rel": 0.01, "mass_centre_rms_over_d": 1.2},
 }
-"""The documented cost of the reduced stiffness at impact Mach number ≤ 0.01, per formulation: the
-top maximum and the mass-centre RMS against the true stiffness's run.  Measured on the 14 cases of
-the packing comparison (10 points per diameter) by ``python bench/packing_stiffness.py
---formulation F`` (docs/model.md, "Stiffness"; tested): Lagrangian at most 1.27 % and 0.20 d at
-M = 0.01 (0.40 % and 0.048 d at M = 0.003); Eulerian at most 0.87 % and 1.08 d at M = 0.01 (the
-three-tap a/d = 1.0 case; 0.38 d in the other 13), 0.26 % and 0.154 d at M = 0.003
-(docs/results/packing_stiffness_eulerian_2026-12-01.json).  The Eulerian mass centre
-after a landing is sensitive (its landing bounce, docs/model.md): at the true stiffness it moves
-by as much between 20 and 40 cells per diameter, so its bound is wider."""
+"""The documented cost of the reduced stiffness at impact Mach number ≤ 0.01, per packing model
+(:func:`stiffness_model`): the top maximum and the mass-centre RMS against the true stiffness's run.
+Measured on the 14 cases of the packing comparison (10 points per diameter) by ``python
+bench/packing_stiffness.py --formulation F [--range R]`` (docs/model.md, "Stiffness"; tested).
+The nonlocal interaction (R = d, ``--formulation lagrangian``): at most 0.51 % and 0.094 d at
+M = 0.01 (0.45 % and 0.025 d at M = 0.003; docs/results/packing_stiffness_nonlocal_2026-12-02.json),
+documented as 1 % and 0.15 d.  The local limit, Lagrangian: at most 1.27 % and
+0.20 d at M = 0.01 (0.40 % and 0.048 d at M = 0.003); Eulerian at most 0.87 % and 1.08 d at
+M = 0.01 (the three-tap a/d = 1.0 case; 0.38 d in the other 13), 0.26 % and 0.154 d at M = 0.003
+(docs/results/packing_stiffness_eulerian_2026-12-01.json).  The Eulerian mass centre after a
+landing is sensitive (its landing bounce, docs/model.md): at the true stiffness it moves by as
+much between 20 and 40 cells per diameter, so its bound is wider.  Other ranges have no measured
+bound."""
 
-STIFFNESS_ERROR_BOUND = STIFFNESS_ERROR_BOUNDS["lagrangian"]
-"""The Lagrangian formulation's bound (:data:`STIFFNESS_ERROR_BOUNDS`)."""
+
+def stiffness_model(setup) -> str:
+    """The key of ``setup``'s packing model in :data:`STIFFNESS_ERROR_BOUNDS`: 'lagrangian R=1d',
+    'lagrangian local' or 'eulerian local' (other ranges: their label, which has no bound)."""
+    r = setup.interaction_range()
+    return f"{setup.formulation} " + ("local" if r == 0.0 else f"R={r:g}d")
+
+
+STIFFNESS_ERROR_BOUND = STIFFNESS_ERROR_BOUNDS["lagrangian R=1d"]
+"""The bound of the package's packing continuum, the nonlocal interaction (:data:`STIFFNESS_ERROR_BOUNDS`)."""
 
 
 def impact_speed_bound(setup: ColumnSetup) -> float:

@@ -73,7 +73,7 @@ import numpy as np
 
 from .interaction import Interaction, constant_wave_speed
 
-__all__ = ["PackingLaw", "BilinearStiffness", "packing_force", "packing_wave_speed", "history_update",
+__all__ = ["PackingLaw", "BilinearStiffness", "bond_weights", "MAX_RANGE_OVER_D", "packing_force", "packing_wave_speed", "history_update",
            "impact_speed", "stiffness_factor_for_mach", "packing_force_numpy", "single_contact_restitution"]
 
 
@@ -164,6 +164,10 @@ class PackingLaw(BilinearStiffness, Interaction):
     diameter: float
     density: float
     stiffness_factor: float = 1.0
+    range_over_d: float = 0.0
+    """R/d, the interaction range in sphere diameters: 0 the local limit (pair forces between
+    neighbouring points or a finite-volume flux of P), > 0 the nonlocal packing interaction whose
+    bonds join material up to the mass m R/d apart (:func:`bond_weights`, docs/model.md)."""
 
     def __post_init__(self):
         for name, v in (("stiffness", self.stiffness), ("diameter", self.diameter), ("density", self.density)):
@@ -173,6 +177,23 @@ class PackingLaw(BilinearStiffness, Interaction):
             raise ValueError(f"restitution = {self.restitution!r} is outside the valid range (0, 1]")
         if not (0.0 < self.stiffness_factor <= 1.0):
             raise ValueError(f"stiffness_factor = {self.stiffness_factor!r} is outside the valid range (0, 1]")
+        if not (np.isfinite(self.range_over_d) and 0.0 <= self.range_over_d <= MAX_RANGE_OVER_D):
+            raise ValueError(f"range_over_d = {self.range_over_d!r} is outside the valid range "
+                             f"[0, {MAX_RANGE_OVER_D:g}]")
+
+    @property
+    def is_nonlocal(self) -> bool:
+        """True for the nonlocal interaction (``range_over_d`` > 0)."""
+        return self.range_over_d > 0.0
+
+    def bond_lags(self, points_per_diameter: int) -> int:
+        """L, the number of bond lags at ``points_per_diameter`` material points (or cells) per
+        diameter: bonds join points ℓ = 1..L apart, L = round(ppd R/d), at least 1."""
+        return max(1, int(round(points_per_diameter * self.range_over_d)))
+
+    def bond_weights(self, points_per_diameter: int) -> np.ndarray:
+        """Weights w_ℓ, ℓ = 1..L, of the nonlocal interaction (:func:`bond_weights`)."""
+        return bond_weights(self.bond_lags(points_per_diameter))
 
     @property
     def particle_mass(self) -> float:
@@ -195,13 +216,37 @@ class PackingLaw(BilinearStiffness, Interaction):
     def to_dict(self) -> dict:
         return {"name": "packing", "stiffness": self.stiffness, "restitution": self.restitution,
                 "diameter": self.diameter, "density": self.density, "stiffness_factor": self.stiffness_factor,
-                "units": {"stiffness": "N m-1", "diameter": "m", "density": "kg m-3"}}
+                "range_over_d": self.range_over_d,
+                "units": {"stiffness": "N m-1", "diameter": "m", "density": "kg m-3", "range_over_d": "1"}}
 
     def contact_time(self) -> float:
         """Duration of a two-sphere contact on the K1/K2 path, π/2 (√(μ/K1) + √(μ/K2)) with
         μ = m/2 [s]."""
         mu = 0.5 * self.particle_mass
         return 0.5 * math.pi * (math.sqrt(mu / self.k1) + math.sqrt(mu / self.k2))
+
+
+MAX_RANGE_OVER_D = 4.0
+"""Largest interaction range R/d accepted (the bonds of a point grow as ppd·R/d)."""
+
+
+def bond_weights(n_lags: int) -> np.ndarray:
+    """Weights w_ℓ of the bonds ℓ = 1..L points apart (L = ``n_lags``) of the nonlocal packing
+    interaction: the seed's kernel profile (R − |z|) of (4.6), a weight falling linearly to zero at
+    the range, sampled at the bonds' midpoints, w_ℓ ∝ 1 − (ℓ − ½)/L, normalised so that
+    Σ ℓ w_ℓ = 1.
+
+    A bond of lag ℓ joins two material points the mass s = ℓ m/ppd apart; its overlap per contact
+    is δ = d − m·(length)/s (the mean spacing of sphere centres in the material it spans, the
+    density by characteristics) and it carries the force w_ℓ P(δ, δ_max) of the packing law.
+    ℓ bonds of lag ℓ cross every section, so a uniform strain transmits Σ ℓ w_ℓ P = P: the
+    local limit is the packing stress.  L = 1 is the local model's nearest-neighbour bond."""
+    L = int(n_lags)
+    if L < 1:
+        raise ValueError(f"n_lags = {n_lags!r} is outside the valid range: integers >= 1")
+    lags = np.arange(1, L + 1, dtype=float)
+    raw = 1.0 - (lags - 0.5) / L
+    return raw / float(np.sum(lags * raw))
 
 
 def single_contact_restitution(law: PackingLaw, v0: float = 0.1, steps: int = 2000) -> float:
