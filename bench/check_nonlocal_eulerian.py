@@ -370,7 +370,7 @@ def main(argv=None):
     if not (math.isfinite(args.cap) and args.cap > 0.0):
         ap.error(f"--cap {args.cap} outside the valid range (0, inf)")
     case = next(c for c in PACKING_CASES if c["name"] == args.case)
-    base = ColumnSetup(range_over_d=1.0)
+    base = ColumnSetup(kernel_name="packing", formulation="lagrangian", range_over_d=1.0)
     s0 = case_setup(case, base, formulation="lagrangian")
     t_d, pos, _ = run_dem_column(s0)
     dem = _metrics(t_d, pos[:, -1], pos.mean(axis=1), s0)

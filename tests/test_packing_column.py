@@ -187,6 +187,7 @@ def test_run_output_and_restart_bit_for_bit(tmp_path, form, rng):
     with xr.open_dataset(tmp_path / "full.nc") as ds:
         a = ds.load()
     assert a.attrs["kernel"] == "packing" and a.attrs["formulation"] == form
+    assert a.attrs["range_over_d"] == (1.0 if (form, rng) == ("lagrangian", None) else 0.0)
     assert a["tracer_height"].shape == (31, 6) and a["tracer_height"].attrs["units"] == "m"
     assert np.allclose(a["top"].values, a["tracer_height"].values[:, -1])
     assert a["mass_centre"].attrs["units"] == "m"

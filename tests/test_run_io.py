@@ -342,7 +342,13 @@ def _wait_for(proc, out, n_min, timeout=180):
     n = 0
     while time.time() < deadline and proc.poll() is None:
         if out.exists() and os.path.exists(str(out) + ".ckpt"):
-            n = read_snapshots(out)[0]["time"].size
+            try:
+                n = read_snapshots(out)[0]["time"].size
+            except (OSError, KeyError):
+                # read while the other process is writing: HDF5 may find a metadata block half
+                # written ("incorrect metadata checksum"); the next poll reads it whole
+                time.sleep(0.05)
+                continue
             if n >= n_min:
                 return n
         time.sleep(0.05)

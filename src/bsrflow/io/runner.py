@@ -318,7 +318,7 @@ def _run_packing_config(config: Config, out, *, resume=False, progress=None, log
         if os.path.exists(ckpt_file):
             os.remove(ckpt_file)
         attrs = {"config": config.to_toml(), "scheme": f"packing_{disc.name}", "diameter": float(setup.diameter),
-                 "kernel": "packing", "formulation": disc.name}
+                 "kernel": "packing", "formulation": disc.name, "range_over_d": float(disc.law.range_over_d)}
         writer = NetCDFWriter(out, grid.x, grid.dx, n_tr, floor, attrs, expected_snapshots=save_times.size)
     if setup.stiffness_factor < 1.0:
         log(stiffness_note(setup))

@@ -47,25 +47,35 @@ def _bond_length(x, j, lag):
 
 
 @numba.njit(cache=True)
-def nonlocal_lagrangian_accelerations(x, hist, acc, weights, ppd, d, k1, k2, inv_mu):
+def nonlocal_lagrangian_accelerations(x, hist, acc, weights, ppd, d, k1, k2, inv_mu, update_history=False):
     """Accelerations acc [m/s²] of the points from the bonds of the nonlocal packing interaction
     (no gravity): bond (ℓ, j), ℓ = 1..L = len(weights), joins point j to point j − ℓ (its mirror
     image below the floor for j < ℓ, whose reaction the floor takes); overlap
     δ = d − (ppd/ℓ)·length (the density by characteristics of the mass ℓ m/ppd it spans), force
     w_ℓ P(δ, hist[ℓ − 1, j]) [N] (every bond is a contact with its own history), pushing j up and
-    j − ℓ down.  Returns the smallest distance between neighbouring points (lag-1 bond lengths,
-    the floor's included) [m]."""
+    j − ℓ down.  ``update_history``: after each bond's force, its history pass
+    (:func:`nonlocal_lagrangian_history`, fused: the same result, one evaluation of the length).
+    Returns the smallest distance between neighbouring points (lag-1 bond lengths, the floor's
+    included) [m]."""
     M = x.shape[0]
     for j in range(M):
         acc[j] = 0.0
     for lag in range(1, weights.shape[0] + 1):
         w = weights[lag - 1] * inv_mu
         s = ppd / lag
-        for j in range(M):
-            f = w * packing_force(d - s * _bond_length(x, j, lag), hist[lag - 1, j], k1, k2)
+        for j in range(min(lag, M)):                # the bonds to the floor's mirror images
+            delta = d - s * (x[j] + x[lag - 1 - j])
+            f = w * packing_force(delta, hist[lag - 1, j], k1, k2)
+            if update_history:
+                hist[lag - 1, j] = history_update(delta, hist[lag - 1, j])
             acc[j] += f
-            if j >= lag:
-                acc[j - lag] -= f
+        for j in range(lag, M):
+            delta = d - s * (x[j] - x[j - lag])
+            f = w * packing_force(delta, hist[lag - 1, j], k1, k2)
+            if update_history:
+                hist[lag - 1, j] = history_update(delta, hist[lag - 1, j])
+            acc[j] += f
+            acc[j - lag] -= f
     shortest = 2.0 * x[0]
     for j in range(1, M):
         shortest = min(shortest, x[j] - x[j - 1])
@@ -86,7 +96,8 @@ def nonlocal_lagrangian_history(x, hist, ppd, d):
 def nonlocal_lagrangian_advance(x, v, hist, weights, t, t_stop, dt_max, mu, ppd, d, k1, k2, fn, params,
                                 gravity, counters):
     """Velocity Verlet of the nonlocal Lagrangian form from t to exactly t_stop with Δt ≤ dt_max,
-    the history pass after each step (as :func:`lagrangian_advance`).
+    the history pass after each step (as :func:`lagrangian_advance`; fused into the force
+    evaluation at the step's new positions, whose forces use the histories before it).
     counters: [steps, status, where]; status 4: two neighbouring points met (crossed)."""
     M = x.shape[0]
     acc = np.empty(M)
@@ -103,11 +114,10 @@ def nonlocal_lagrangian_advance(x, v, hist, weights, t, t_stop, dt_max, mu, ppd,
             v[i] += 0.5 * dt * (acc[i] + a0)
             x[i] += dt * v[i]
         t1 = t_stop if last else t + dt
-        shortest = nonlocal_lagrangian_accelerations(x, hist, acc, weights, ppd, d, k1, k2, inv_mu)
+        shortest = nonlocal_lagrangian_accelerations(x, hist, acc, weights, ppd, d, k1, k2, inv_mu, True)
         a1 = -gravity - fn(t1, params)[2]
         for i in range(M):
             v[i] += 0.5 * dt * (acc[i] + a1)
-        nonlocal_lagrangian_history(x, hist, ppd, d)
         t = t1
         counters[0] += 1
         if not shortest > 0.0:
