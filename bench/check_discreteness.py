@@ -6,8 +6,9 @@ chain against its continuum limit, with the same contact law.
 For one case of ``bsrflow compare --kernel packing`` prints the top sphere's rise (maximum minus
 the top at rest, in d) and its error against the package's DEM for
 
-* ``local``: the Lagrangian packing continuum of the package (R = one point spacing) at each
-  ``--ppd``: its continuum limit;
+* ``local``: the Lagrangian packing continuum's local limit (``range_over_d = 0``, R = one point
+  spacing) at each ``--ppd``: its continuum limit (the package's default, the nonlocal
+  interaction over one diameter, came out of this script's findings: docs/model.md);
 * ``chain``: the same bond law on one material point per sphere, with the DEM's wall contact
   (overlap d/2 − y, stiffness K) to the floor: this is the DEM's own equations, so it must agree
   with the DEM (a check of the script), and it shows that the deficit is not in the contact law
@@ -144,7 +145,7 @@ def main(argv=None):
     for w in args.widths:
         if not 0.0 <= w < 1.0:
             ap.error(f"--widths {w} outside the valid range [0, 1)")
-    s = case_setup(next(c for c in PACKING_CASES if c["name"] == args.case), formulation="lagrangian",
+    s = case_setup(next(c for c in PACKING_CASES if c["name"] == args.case), formulation="lagrangian", range_over_d=0.0,
                    save_every=0.0005)
     d = s.diameter
     col = DEMColumn(n_spheres=s.n_spheres, diameter=d, density=s.density, stiffness=s.stiffness,

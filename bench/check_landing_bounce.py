@@ -5,7 +5,8 @@ DEM's (issue #18: where the Eulerian bounce at 40 cells per diameter comes from)
         [--stiffness-factor 1] [--times 0.9,0.95,1.0,1.05,1.1,1.15,1.2]
 
 Prints the mass centre [d] at ``--times`` (within the run) for the DEM and each run
-(formulation:points per diameter); then the top of the material [d] in the lab frame (the DEM:
+(formulation:points per diameter; the local limit of the packing continuum, ``range_over_d = 0``,
+in both formulations, the model whose landing this script was written to study); then the top of the material [d] in the lab frame (the DEM:
 the top sphere's centre + d/2; a continuum: the upper face of its highest cell above 1e-3 ρ_c)
 and the DEM's widest gap between neighbouring spheres [d] (surface to surface: how spread out it
 lands); then, for the last run, the material above the column at the end: the cells with more than 1e-6 ρ_c above the resting column's top N d, their density range
@@ -64,7 +65,7 @@ def main(argv=None):
     last = None
     for form, ppd in args.runs:
         s = case_setup(known[args.case], ColumnSetup(points_per_diameter=ppd)).with_(
-            formulation=form, stiffness_factor=args.stiffness_factor)
+            formulation=form, stiffness_factor=args.stiffness_factor, range_over_d=0.0)   # the local limit, both
         w = time.perf_counter()
         r = run_bsr_column(s)
         print(f"{form} {ppd} per diameter: {r.steps} steps, {time.perf_counter() - w:.1f} s", flush=True)

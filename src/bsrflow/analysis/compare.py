@@ -215,9 +215,10 @@ def add_parser(sub):
                            "default) or packing (the contact law's continuum, nothing fitted, both "
                            "formulations, the cases of bsrflow.analysis.compare_packing)")
             p.add_argument("--models", default=None, metavar="F:R,...",
-                           help="packing only: the models to run, FORMULATION:R_OVER_D comma-separated "
-                           "(default lagrangian:1,eulerian:0,lagrangian:0: the nonlocal interaction over one "
-                           "diameter and the local limit in both formulations; the eulerian formulation "
+                           help="packing only: the models to run, FORMULATION[:R_OVER_D] comma-separated, "
+                           "R_OVER_D 0 or a whole number of point spacings, the formulation's default when "
+                           "absent (default lagrangian:1,eulerian:0,lagrangian:0: the nonlocal interaction over "
+                           "one diameter and the local limit in both formulations; the eulerian formulation "
                            "supports only R = 0)")
             p.add_argument("--formulation", default=None, help="packing only: keep only the models of these "
                            "formulations, eulerian, lagrangian or both (comma-separated)")
@@ -270,6 +271,11 @@ def _packing_main(args) -> int:
     if args.scheme != "seed":
         raise ValueError("--scheme is an option of the seed kernel only (valid with --kernel packing: none)")
     base = ColumnSetup(kernel_name="packing", **kw)
+    for form, rng in models:                       # every model checked before the first run
+        try:
+            base.with_(formulation=form, range_over_d=rng)
+        except ValueError as exc:
+            raise ValueError(f"--models: {model_label(form, rng)}: {exc}") from None
     if args.json:
         check_output_file(args.json, "--json")
     if args.figures:

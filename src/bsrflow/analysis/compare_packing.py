@@ -3,22 +3,24 @@
 ``bsrflow compare --kernel packing --json PATH --figures DIR`` runs, for every case of
 :data:`PACKING_CASES` (d = 5, 10, 22 mm at a/d = 0.5, 0.75, 1.0, 1.5, single taps; three taps
 with period 1.0 s at d = 22 mm, a/d = 0.75 and 1.0), the package's DEM and the packing
-continuum (:mod:`bsrflow.physics.packing`) in both formulations.  Only the contact law's K and
-e, d, the material density, N and g enter the continuum: no calibration step, and the JSON says
-so with ``"fitted_constants": {}``.
+continuum (:mod:`bsrflow.physics.packing`) in each model of ``models`` (:data:`PACKING_MODELS`,
+(formulation, R/d) pairs: by default the nonlocal interaction over one diameter, Lagrangian, and
+the local limit in both formulations).  Only the contact law's K and e, d, the material density,
+N and g enter the continuum: no calibration step, and the JSON says so with
+``"fitted_constants": {}``.
 
-Metrics per case and formulation (heights from the floor at rest, in d): the top sphere's
-maximum after each tap and its time (continuum: the tracer at the top sphere's centre, i.e. at
-mass coordinate (N − ½) m), their relative differences from the DEM's (time from the run's
-start, as in today's compare JSON; also the rise time from the tap's start), the relative error
-of the rise (top maximum minus the top at rest: the stricter measure), with several taps the
-largest over the taps, and the RMS difference of the mass-centre heights over the whole run.
+Metrics per case and model (heights from the floor at rest, in d): the top sphere's maximum after
+each tap and its time (continuum: the tracer at the top sphere's centre, i.e. at mass coordinate
+(N − ½) m), their relative differences from the DEM's (time from the run's start, as in today's
+compare JSON; also the rise time from the tap's start), the relative error of the rise (top
+maximum minus the top at rest: the stricter measure), with several taps the largest over the
+taps, and the RMS difference of the mass-centre heights over the whole run.
 
-Figures: the tracer trajectories of both formulations beside the DEM's sphere trajectories;
-top and mass centre against time; density snapshots of the continuum beside the DEM's
-coarse-grained density (a Gaussian kernel average of the sphere centres of standard deviation
-d/2, i.e. about one diameter wide, the MercuryCG way; the continuum is shown both as it is and
-coarse-grained with the same kernel) at the same times.
+Figures: the tracer trajectories of every model beside the DEM's sphere trajectories; top and
+mass centre against time; density snapshots of the continuum beside the DEM's coarse-grained
+density (a Gaussian kernel average of the sphere centres of standard deviation d/2, i.e. about
+one diameter wide, the MercuryCG way; the continuum is shown both as it is and coarse-grained with
+the same kernel) at the same times.
 """
 
 from __future__ import annotations
@@ -29,7 +31,7 @@ import time
 
 import numpy as np
 
-from ..physics.column import ColumnSetup, run_bsr_column
+from ..physics.column import ColumnSetup, model_label, run_bsr_column
 
 __all__ = ["PACKING_CASES", "PACKING_MODELS", "case_setup", "compare_packing", "coarse_grained_density",
            "format_packing_table", "demo_packing", "format_demo_table", "model_label", "parse_models"]
@@ -39,15 +41,11 @@ PACKING_MODELS = (("lagrangian", 1.0), ("eulerian", 0.0), ("lagrangian", 0.0))
 the package's packing continuum; Lagrangian only) and the local limit in both formulations."""
 
 
-def model_label(formulation: str, range_over_d: float) -> str:
-    """'lagrangian R=1d' or 'eulerian local' (the local limit, R = 0)."""
-    return f"{formulation} " + ("local" if range_over_d == 0.0 else f"R={range_over_d:g}d")
-
-
 def parse_models(text: str):
-    """'lagrangian:1,eulerian:0' -> (("lagrangian", 1.0), ("eulerian", 0.0)); ValueError naming
-    ``--models`` on bad input (an unknown formulation, a range outside [0, 4], or a nonlocal range
-    with the Eulerian formulation, which supports only 0)."""
+    """'lagrangian:1,eulerian:0' -> (("lagrangian", 1.0), ("eulerian", 0.0)); a formulation without
+    ':R' takes its default range (1 Lagrangian, 0 Eulerian).  ValueError naming ``--models`` on bad
+    input (an unknown formulation, a range outside [0, 4], a nonlocal range with the Eulerian
+    formulation, which supports only 0, or a model given twice)."""
     from ..physics.packing import MAX_RANGE_OVER_D
     out = []
     for item in text.split(","):
@@ -64,6 +62,8 @@ def parse_models(text: str):
         if form == "eulerian" and r != 0.0:
             raise ValueError(f"--models: {item!r}: the range is outside the valid range [0, 0] of the eulerian "
                              "formulation (the nonlocal interaction is the lagrangian formulation's)")
+        if (form, r) in out:
+            raise ValueError(f"--models: {item!r} is given twice")
         out.append((form, r))
     return tuple(out)
 
@@ -186,7 +186,8 @@ def compare_packing(base: ColumnSetup | None = None, cases=None, models=PACKING_
                     f"{entry['bsr']['wall_s']:.1f} s, DEM {dem_wall:.1f} s")
         fig_runs[c["name"]] = (s0, runs, dem)
     result = {"d": base.diameter, "scheme": "packing", "kernel": "packing", "calibration": None,
-              "fitted_constants": {}, "cases": out_cases, "setup": base.with_(kernel_name="packing").to_dict(),
+              "fitted_constants": {}, "models": [model_label(*mdl) for mdl in models], "cases": out_cases,
+              "setup": base.with_(kernel_name="packing").to_dict(),
               "wall_time_s": time.perf_counter() - t0}
     if figures:
         from .. import plots

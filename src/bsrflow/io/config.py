@@ -713,7 +713,8 @@ class Config:
                 val = self._values[f.name]
                 if val is None:
                     example = {"run.checkpoint_every": "0.1", "numerics.cfl": "0.5", "numerics.stepper": '"bs32"', "numerics.rtol": "1e-4",
-                               "model.range_over_d": "1.0", "numerics.formulation": '"lagrangian"',
+                               "model.range_over_d": '1.0  # with model.kernel = "packing"',
+                               "numerics.formulation": '"lagrangian"  # with model.kernel = "packing"',
                                "numerics.atol": "[1e-3, 1e-3]", "numerics.domain_height": "3.5"}[f.name]
                     lines.append(f"# {f.key} = {example}")
                 else:

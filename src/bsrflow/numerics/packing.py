@@ -4,8 +4,11 @@
   volumes (MUSCL-minmod reconstruction, first order at compaction faces, HLLE fluxes with secant
   wave speeds, SSP-RK3), the history field δ_max advected with the material in conserved form ρδ_max.
 * :class:`LagrangianPacking` — formulation (b): material points moved by ẋ = u, the density
-  by characteristics (3.10)–(3.12) between neighbouring points, pair forces between them,
-  velocity Verlet; the history lives on the bonds between points.
+  by characteristics (3.10)–(3.12) over the bonds between them, velocity Verlet; the history
+  lives on the bonds.  In the local limit (``range_over_d = 0``) the bonds join neighbouring
+  points (pair forces); with the nonlocal interaction (``range_over_d`` > 0, the package's packing
+  continuum) they join points up to L = ppd R/d apart (:mod:`bsrflow.numerics.packing_nonlocal`).
+  The Eulerian formulation runs the local limit only.
 
 Both expose the same interface to :func:`run_packing` (the controller): a state of named fields
 (``fields``; what checkpoints store), ``advance(t, t_stop)``, ``observe()`` (density and velocity
@@ -277,4 +280,5 @@ def run_packing(disc, t_end, save_times, *, t_start=0.0, observers=(), extra_eve
     wall = time.perf_counter() - wall
     return PackingResult(np.array(out_t), np.array(out_rho), np.array(out_u), np.array(out_tr),
                          np.array(out_floor), disc.steps - steps0, wall,
-                         info={"formulation": disc.name, "ppd": disc.ppd, "cfl": disc.cfl})
+                         info={"formulation": disc.name, "ppd": disc.ppd, "cfl": disc.cfl,
+                               "range_over_d": float(disc.law.range_over_d)})

@@ -98,8 +98,11 @@ def nonlocal_lagrangian_advance(x, v, hist, weights, t, t_stop, dt_max, mu, ppd,
     """Velocity Verlet of the nonlocal Lagrangian form from t to exactly t_stop with Δt ≤ dt_max,
     the history pass after each step (as :func:`lagrangian_advance`; fused into the force
     evaluation at the step's new positions, whose forces use the histories before it).
-    counters: [steps, status, where]; status 4: two neighbouring points met (crossed)."""
+    counters: [steps, status, where]; status 4: two neighbouring points met (crossed).
+    ValueError unless hist has the shape (L, points) and L ≤ points (the mirror bonds' indices)."""
     M = x.shape[0]
+    if hist.shape[0] != weights.shape[0] or hist.shape[1] != M or weights.shape[0] > M:
+        raise ValueError("nonlocal_lagrangian_advance: hist must be (len(weights), len(x)) with len(weights) <= len(x)")
     acc = np.empty(M)
     inv_mu = 1.0 / mu
     nonlocal_lagrangian_accelerations(x, hist, acc, weights, ppd, d, k1, k2, inv_mu)

@@ -49,6 +49,9 @@ only for d of about 2.1-2.3 cm (seed-notes problem 2; `bsrflow compare --sweep-d
 this); we take 2.2 cm.  An inference, not a quoted value."""
 
 
+MAX_BONDS = 50_000_000
+"""Most bonds (histories) a nonlocal column may hold: 400 MB of history."""
+
 DEFAULT_RANGE_OVER_D = 1.0
 """The packing interaction's default range R/d in the Lagrangian formulation: one diameter, the
 range of a sphere's contacts (docs/model.md, "The nonlocal interaction")."""
@@ -72,7 +75,10 @@ class ColumnSetup:
     packing discretisation's CFL number (default 0.4 Eulerian, 0.5 Lagrangian); range_over_d: the
     packing interaction's range R/d (:meth:`interaction_range`; None: the formulation's default,
     1 (nonlocal, R = d) for the Lagrangian formulation, 0 (the local limit) for the Eulerian one,
-    which supports only 0).
+    which supports only 0; a nonzero R must be a whole number of point spacings k/ppd).
+    Note: ``formulation`` defaults to "eulerian" here (the seed kernel's grid), so
+    ``ColumnSetup(kernel_name="packing")`` is the Eulerian local limit; the package's packing
+    continuum is ``formulation="lagrangian"`` (R = d), which a config gets by default.
     """
 
     n_spheres: int = 20
@@ -159,6 +165,14 @@ class ColumnSetup:
             if self.range_over_d > self.n_spheres:
                 raise ValueError(f"range_over_d = {self.range_over_d!r} is outside the valid range "
                                  f"[0, {self.n_spheres}] for a column of {self.n_spheres} spheres")
+            if self.range_over_d > 0.0:
+                from .packing import PackingLaw
+                L = PackingLaw(1.0, 0.5, 1.0, 1.0, range_over_d=self.range_over_d).bond_lags(self.points_per_diameter)
+                bonds = L * self.n_spheres * self.points_per_diameter
+                if bonds > MAX_BONDS:
+                    raise ValueError(f"range_over_d = {self.range_over_d!r} gives {bonds:.3g} bonds with "
+                                     f"{self.n_spheres} spheres at {self.points_per_diameter} points per diameter; "
+                                     f"valid: at most {MAX_BONDS:.0e} (ppd² R/d N)")
         if self.cfl is not None:
             if self.kernel_name == "seed":
                 raise ValueError("cfl is an option of the packing kernel only (the seed kernel's CFL number "
@@ -303,11 +317,17 @@ much between 20 and 40 cells per diameter, so its bound is wider.  Other ranges 
 bound."""
 
 
+def model_label(formulation: str, range_over_d: float) -> str:
+    """The name of a packing model: 'lagrangian R=1d', or 'eulerian local' for the local limit
+    (R = 0)."""
+    return f"{formulation} " + ("local" if range_over_d == 0.0 else f"R={range_over_d:g}d")
+
+
 def stiffness_model(setup) -> str:
-    """The key of ``setup``'s packing model in :data:`STIFFNESS_ERROR_BOUNDS`: 'lagrangian R=1d',
-    'lagrangian local' or 'eulerian local' (other ranges: their label, which has no bound)."""
-    r = setup.interaction_range()
-    return f"{setup.formulation} " + ("local" if r == 0.0 else f"R={r:g}d")
+    """The key of ``setup``'s packing model in :data:`STIFFNESS_ERROR_BOUNDS`
+    (:func:`model_label`): 'lagrangian R=1d', 'lagrangian local' or 'eulerian local' (other
+    ranges have no bound)."""
+    return model_label(setup.formulation, setup.interaction_range())
 
 
 STIFFNESS_ERROR_BOUND = STIFFNESS_ERROR_BOUNDS["lagrangian R=1d"]

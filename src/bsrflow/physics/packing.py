@@ -40,13 +40,16 @@ the integral tends to −(P/ρ²) ρ_x − ∂_x(P/ρ) = −(1/ρ) ∂P/∂x as 
 ∫ρ(x) ∫ρ(y) Θ dy dx = 0, since the bracket is symmetric in (x, y) and ∂_x W_R(x − y) is odd.
 Units: Θ [N m²/kg² · 1/m² = m/s² · m/kg], ρ dy [kg], the integral [m/s²].
 
-Choice of R: both discretisations use the smallest consistent R, one grid spacing / one
-material-point spacing, so that the model is the local limit (the choice the convergence tables
-of docs/model.md measure).  (a) Eulerian: the finite-volume flux difference of P is the R → 0
-limit; (b) Lagrangian: with material points at spacing h = d/n, a top-hat W of radius h reduces
-the sum over points to the nearest neighbours, i.e. a pair force P between neighbouring points,
-computed from the density of the material between them (the density by characteristics
-(3.10)–(3.12): ρ = (m/n)/(x_{i+1} − x_i)), equal and opposite on both (momentum exact).
+Choice of R: the local form (``range_over_d = 0``) uses the smallest consistent R, one grid
+spacing / one material-point spacing, so that the model is the local limit: (a) Eulerian: the
+finite-volume flux difference of P is the R → 0 limit; (b) Lagrangian: with material points at
+spacing h = d/n, a top-hat W of radius h reduces the sum over points to the nearest neighbours,
+i.e. a pair force P between neighbouring points, computed from the density of the material
+between them (the density by characteristics (3.10)–(3.12): ρ = (m/n)/(x_{i+1} − x_i)), equal and
+opposite on both (momentum exact).  The package's packing continuum is the nonlocal form
+(``range_over_d`` > 0, R = d by default in the Lagrangian formulation): bonds between material up
+to the mass m R/d apart, each a contact with its own history, weighted by :func:`bond_weights`
+(:mod:`bsrflow.numerics.packing_nonlocal`, docs/model.md "The nonlocal interaction").
 
 Compared with the seed's kernel (4.6)
 -------------------------------------
@@ -187,9 +190,17 @@ class PackingLaw(BilinearStiffness, Interaction):
         return self.range_over_d > 0.0
 
     def bond_lags(self, points_per_diameter: int) -> int:
-        """L, the number of bond lags at ``points_per_diameter`` material points (or cells) per
-        diameter: bonds join points ℓ = 1..L apart, L = round(ppd R/d), at least 1."""
-        return max(1, int(round(points_per_diameter * self.range_over_d)))
+        """L, the number of bond lags at ``points_per_diameter`` material points per diameter:
+        bonds join points ℓ = 1..L apart, L = ppd R/d, which must be a whole number ≥ 1 (a range
+        between two point spacings would be rounded to one of them, and one below a spacing is the
+        local form: both are refused, ValueError naming ``range_over_d``)."""
+        n = points_per_diameter * self.range_over_d
+        L = int(round(n))
+        if L < 1 or abs(n - L) > 1e-9 * max(1.0, n):
+            raise ValueError(f"range_over_d = {self.range_over_d!r} is outside the valid range: 0, or a whole "
+                             f"number of point spacings k/ppd = k/{points_per_diameter} (k = 1, 2, ...) up to "
+                             f"{MAX_RANGE_OVER_D:g}")
+        return L
 
     def bond_weights(self, points_per_diameter: int) -> np.ndarray:
         """Weights w_ℓ, ℓ = 1..L, of the nonlocal interaction (:func:`bond_weights`)."""
