@@ -24,6 +24,15 @@ RHO, MOM, HIST = 0, 1, 2
 NG = 2          # ghost cells per side
 
 
+@numba.njit(cache=True, inline="always")
+def clamped_step(t, t_stop, dt_max):
+    """(Δt, last): ``dt_max``, or what is left up to ``t_stop`` when that is not more (the last
+    step then lands on t_stop exactly)."""
+    if t + dt_max >= t_stop:
+        return t_stop - t, True
+    return dt_max, False
+
+
 # ------------------------------------------------------------------------------------------------
 # Eulerian finite volumes: MUSCL (minmod) reconstruction, HLLE fluxes, SSP-RK3
 # ------------------------------------------------------------------------------------------------
@@ -299,11 +308,7 @@ def lagrangian_advance(x, v, hist, t, t_stop, dt_max, mu, ppd, d, k1, k2, fn, pa
     inv_mu = 1.0 / mu
     lagrangian_forces(x, hist, force, ppd, d, k1, k2)
     while t < t_stop:
-        dt = dt_max
-        last = False
-        if t + dt >= t_stop:
-            dt = t_stop - t
-            last = True
+        dt, last = clamped_step(t, t_stop, dt_max)
         a0 = -gravity - fn(t, params)[2]
         for i in range(M - 1):
             v[i] += 0.5 * dt * ((force[i] - force[i + 1]) * inv_mu + a0)

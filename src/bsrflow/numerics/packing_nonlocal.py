@@ -27,6 +27,7 @@ import numba
 import numpy as np
 
 from ..physics.packing import history_update, packing_force
+from .packing_kernels import clamped_step
 
 
 def nonlocal_time_step_bound(weights, ppd, k2, m):
@@ -107,11 +108,7 @@ def nonlocal_lagrangian_advance(x, v, hist, weights, t, t_stop, dt_max, mu, ppd,
     inv_mu = 1.0 / mu
     nonlocal_lagrangian_accelerations(x, hist, acc, weights, ppd, d, k1, k2, inv_mu)
     while t < t_stop:
-        dt = dt_max
-        last = False
-        if t + dt >= t_stop:
-            dt = t_stop - t
-            last = True
+        dt, last = clamped_step(t, t_stop, dt_max)
         a0 = -gravity - fn(t, params)[2]
         for i in range(M):
             v[i] += 0.5 * dt * (acc[i] + a0)
