@@ -33,8 +33,8 @@ import numpy as np
 from bsrflow.analysis.compare import run_dem_column
 from bsrflow.analysis.compare_packing import PACKING_CASES, _metrics, case_setup
 from bsrflow.numerics.packing import EulerianPacking, PackingError, run_packing
-from bsrflow.numerics.packing_kernels import (HIST, MOM, NG, RHO, _minmod, active_top, compaction_face,
-                                              hlle_combine, no_tension)
+from bsrflow.numerics.packing_kernels import (HIST, MOM, NG, RHO, active_top, clamped_step, compaction_face,
+                                              hlle_combine, muscl_face_states, no_tension, state_failed)
 from bsrflow.numerics.packing_nonlocal import nonlocal_time_step_bound
 from bsrflow.physics.column import ColumnSetup, column_run_from_result
 from bsrflow.physics.packing import history_update, packing_force, packing_wave_speed
@@ -170,12 +170,9 @@ def nonlocal_fv_rhs(q, dq, hi, dx, accel, d, m, k1, k2, c_cap, rho_tiny, w, flux
         jl = f + 1
         jr = f + 2
         hs = 0.0 if compaction_face(w[0, jl], w[1, jl], w[0, jr], w[1, jr], d, m) else 0.5
-        rL = w[0, jl] + hs * _minmod(w[0, jl] - w[0, jl - 1], w[0, jr] - w[0, jl])
-        uL = w[1, jl] + hs * _minmod(w[1, jl] - w[1, jl - 1], w[1, jr] - w[1, jl])
-        hL = w[2, jl] + hs * _minmod(w[2, jl] - w[2, jl - 1], w[2, jr] - w[2, jl])
-        rR = w[0, jr] - hs * _minmod(w[0, jr] - w[0, jl], w[0, jr + 1] - w[0, jr])
-        uR = w[1, jr] - hs * _minmod(w[1, jr] - w[1, jl], w[1, jr + 1] - w[1, jr])
-        hR = w[2, jr] - hs * _minmod(w[2, jr] - w[2, jl], w[2, jr + 1] - w[2, jr])
+        rL, rR = muscl_face_states(w, 0, jl, jr, hs)
+        uL, uR = muscl_face_states(w, 1, jl, jr, hs)
+        hL, hR = muscl_face_states(w, 2, jl, jr, hs)
         SL, SR, uL, uR, pL, pR = _capped_waves(rL, uL, hL, rR, uR, hR, d, m, k1, k2, c_cap, rho_tiny)
         f_mass = hlle_combine(SL, SR, rL * uL, rR * uR, rL, rR)
         f_mom = hlle_combine(SL, SR, rL * uL * uL, rR * uR * uR, rL * uL, rR * uR) + sigf[f]
@@ -183,8 +180,7 @@ def nonlocal_fv_rhs(q, dq, hi, dx, accel, d, m, k1, k2, c_cap, rho_tiny, w, flux
         flux[1, f] = no_tension(f_mass, f_mom, uL, uR)
         flux[2, f] = hlle_combine(SL, SR, rL * uL * hL, rR * uR * hR, rL * hL, rR * hR)
         for v in range(3, nv):
-            hL = w[v, jl] + hs * _minmod(w[v, jl] - w[v, jl - 1], w[v, jr] - w[v, jl])
-            hR = w[v, jr] - hs * _minmod(w[v, jr] - w[v, jl], w[v, jr + 1] - w[v, jr])
+            hL, hR = muscl_face_states(w, v, jl, jr, hs)
             flux[v, f] = hlle_combine(SL, SR, rL * uL * hL, rR * uR * hR, rL * hL, rR * hR)
     inv_dx = 1.0 / dx
     for k in range(hi + 1):
@@ -267,11 +263,7 @@ def nonlocal_fv_advance(q, t, t_stop, dx, cfl, c_bound, d, m, k1, k2, rho_tiny, 
             r = q[RHO, NG + k]
             if r > rho_tiny:
                 umax = max(umax, abs(q[MOM, NG + k] / r))
-        dt = cfl * dx / (c_bound + umax)
-        last = False
-        if t + dt >= t_stop:
-            dt = t_stop - t
-            last = True
+        dt, last = clamped_step(t, t_stop, cfl * dx / (c_bound + umax))
         nonlocal_fill_ghosts(q, hi)
         face_stress(q, hi, dx, weights, mu, n_virtual, ppd, d, k1, k2, cum, xv, kv, fsum, sig, sigf)
         nonlocal_fv_rhs(q, dq, hi, dx, -gravity - fn(t, params)[2], d, m, k1, k2, c_bound, rho_tiny, w, flux, sigf)
@@ -297,16 +289,8 @@ def nonlocal_fv_advance(q, t, t_stop, dx, cfl, c_bound, d, m, k1, k2, rho_tiny, 
         nonlocal_fv_post_step(q, hi, dx, d, mu, ppd, rho_floor, cum)
         t = t_stop if last else t + dt
         counters[0] += 1
-        for k in range(hi + 1):
-            r = q[RHO, NG + k]
-            if not (math.isfinite(r) and math.isfinite(q[MOM, NG + k])):
-                counters[1] = 2
-                counters[2] = k
-                return t
-            if r < 0.0:
-                counters[1] = 1
-                counters[2] = k
-                return t
+        if state_failed(q, hi, counters):
+            return t
         top = active_top(q, hi)
     counters[3] = top
     return t

@@ -235,17 +235,17 @@ def add_parser(sub):
 
 
 def _packing_main(args) -> int:
-    from .compare_packing import PACKING_CASES, PACKING_MODELS, compare_packing, format_packing_table, model_label
-    from .compare_packing import parse_models
-    models = PACKING_MODELS if args.models is None else parse_models(args.models)
+    from .compare_packing import (PACKING_CASES, PACKING_MODELS, compare_packing, format_packing_table, model_label,
+                                  parse_models)
+    requested = PACKING_MODELS if args.models is None else parse_models(args.models)
     forms = tuple((args.formulation or "eulerian,lagrangian").split(","))
     bad = [f for f in forms if f not in ("eulerian", "lagrangian")]
     if bad:
         raise ValueError(f"--formulation = {bad[0]!r} is not one of eulerian, lagrangian")
-    models = tuple(mdl for mdl in models if mdl[0] in forms)
+    models = tuple(mdl for mdl in requested if mdl[0] in forms)
     if not models:
         raise ValueError(f"--formulation = {args.formulation!r} leaves none of the models "
-                         f"{', '.join(model_label(*mdl) for mdl in (parse_models(args.models) if args.models else PACKING_MODELS))}")
+                         f"{', '.join(model_label(*mdl) for mdl in requested)}")
     cases = PACKING_CASES
     if args.cases:
         names = args.cases.split(",")

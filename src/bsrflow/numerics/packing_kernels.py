@@ -43,6 +43,15 @@ def _minmod(a, b):
     return a if abs(a) < abs(b) else b
 
 
+@numba.njit(cache=True, inline="always")
+def muscl_face_states(w, v, jl, jr, hs):
+    """(left, right) states of field row ``v`` of the primitives ``w`` at the face between padded
+    cells jl and jr = jl + 1: the cells' values plus ``hs`` (½, or 0 for first order) times their
+    minmod-limited slopes."""
+    return (w[v, jl] + hs * _minmod(w[v, jl] - w[v, jl - 1], w[v, jr] - w[v, jl]),
+            w[v, jr] - hs * _minmod(w[v, jr] - w[v, jl], w[v, jr + 1] - w[v, jr]))
+
+
 @numba.njit(cache=True)
 def fill_ghosts(q, hi):
     """Floor at face 0: mirror ghosts (ρ even, ρu odd, ρδ_max even).  Vacuum: cells hi+1 and
@@ -165,12 +174,9 @@ def fv_rhs(q, dq, hi, dx, accel, d, m, k1, k2, c_cap, rho_tiny, w, flux):
         jr = f + 2
         # half slopes, none at a compaction face (first order there): a factor, not a branch
         hs = 0.0 if compaction_face(w[0, jl], w[1, jl], w[0, jr], w[1, jr], d, m) else 0.5
-        rL = w[0, jl] + hs * _minmod(w[0, jl] - w[0, jl - 1], w[0, jr] - w[0, jl])
-        uL = w[1, jl] + hs * _minmod(w[1, jl] - w[1, jl - 1], w[1, jr] - w[1, jl])
-        hL = w[2, jl] + hs * _minmod(w[2, jl] - w[2, jl - 1], w[2, jr] - w[2, jl])
-        rR = w[0, jr] - hs * _minmod(w[0, jr] - w[0, jl], w[0, jr + 1] - w[0, jr])
-        uR = w[1, jr] - hs * _minmod(w[1, jr] - w[1, jl], w[1, jr + 1] - w[1, jr])
-        hR = w[2, jr] - hs * _minmod(w[2, jr] - w[2, jl], w[2, jr + 1] - w[2, jr])
+        rL, rR = muscl_face_states(w, 0, jl, jr, hs)
+        uL, uR = muscl_face_states(w, 1, jl, jr, hs)
+        hL, hR = muscl_face_states(w, 2, jl, jr, hs)
         flux[0, f], flux[1, f], flux[2, f] = _hlle(rL, uL, hL, rR, uR, hR, d, m, k1, k2, c_cap, rho_tiny)
     inv_dx = 1.0 / dx
     for k in range(hi + 1):
@@ -196,6 +202,23 @@ def fv_post_step(q, hi, d, m, rho_floor):
             continue
         h = q[HIST, j] / r
         q[HIST, j] = r * history_update(d - m / r, h)
+
+
+@numba.njit(cache=True, inline="always")
+def state_failed(q, hi, counters):
+    """The monitor after a step: True, with counters[1] = 2 (non-finite ρ or ρu) or 1 (negative
+    density) and counters[2] the cell, at the first bad cell of 0..hi; False if all are sound."""
+    for k in range(hi + 1):
+        r = q[RHO, NG + k]
+        if not (math.isfinite(r) and math.isfinite(q[MOM, NG + k])):
+            counters[1] = 2
+            counters[2] = k
+            return True
+        if r < 0.0:
+            counters[1] = 1
+            counters[2] = k
+            return True
+    return False
 
 
 @numba.njit(cache=True)
@@ -257,16 +280,8 @@ def fv_advance(q, t, t_stop, dx, cfl, c_bound, d, m, k1, k2, rho_tiny, rho_floor
         fv_post_step(q, hi, d, m, rho_floor)
         t = t_stop if last else t + dt
         counters[0] += 1
-        for k in range(hi + 1):
-            r = q[RHO, NG + k]
-            if not (math.isfinite(r) and math.isfinite(q[MOM, NG + k])):
-                counters[1] = 2
-                counters[2] = k
-                return t
-            if r < 0.0:
-                counters[1] = 1
-                counters[2] = k
-                return t
+        if state_failed(q, hi, counters):
+            return t
         top = active_top(q, hi)
     counters[3] = top
     return t

@@ -76,7 +76,7 @@ import numpy as np
 
 from .interaction import Interaction, constant_wave_speed
 
-__all__ = ["PackingLaw", "BilinearStiffness", "bond_weights", "MAX_RANGE_OVER_D", "packing_force", "packing_wave_speed", "history_update",
+__all__ = ["PackingLaw", "BilinearStiffness", "bond_lags", "bond_weights", "MAX_RANGE_OVER_D", "packing_force", "packing_wave_speed", "history_update",
            "impact_speed", "stiffness_factor_for_mach", "packing_force_numpy", "single_contact_restitution"]
 
 
@@ -190,17 +190,8 @@ class PackingLaw(BilinearStiffness, Interaction):
         return self.range_over_d > 0.0
 
     def bond_lags(self, points_per_diameter: int) -> int:
-        """L, the number of bond lags at ``points_per_diameter`` material points per diameter:
-        bonds join points ℓ = 1..L apart, L = ppd R/d, which must be a whole number ≥ 1 (a range
-        between two point spacings would be rounded to one of them, and one below a spacing is the
-        local form: both are refused, ValueError naming ``range_over_d``)."""
-        n = points_per_diameter * self.range_over_d
-        L = int(round(n))
-        if L < 1 or abs(n - L) > 1e-9 * max(1.0, n):
-            raise ValueError(f"range_over_d = {self.range_over_d!r} is outside the valid range: 0, or a whole "
-                             f"number of point spacings k/ppd = k/{points_per_diameter} (k = 1, 2, ...) up to "
-                             f"{MAX_RANGE_OVER_D:g}")
-        return L
+        """L of this law at ``points_per_diameter`` (:func:`bond_lags`)."""
+        return bond_lags(self.range_over_d, points_per_diameter)
 
     def bond_weights(self, points_per_diameter: int) -> np.ndarray:
         """Weights w_ℓ, ℓ = 1..L, of the nonlocal interaction (:func:`bond_weights`)."""
@@ -239,6 +230,20 @@ class PackingLaw(BilinearStiffness, Interaction):
 
 MAX_RANGE_OVER_D = 4.0
 """Largest interaction range R/d accepted (the bonds of a point grow as ppd·R/d)."""
+
+
+def bond_lags(range_over_d: float, points_per_diameter: int) -> int:
+    """L, the number of bond lags of the range R/d = ``range_over_d`` at ``points_per_diameter``
+    material points per diameter: bonds join points ℓ = 1..L apart, L = ppd R/d, which must be a
+    whole number ≥ 1 (a range between two point spacings would be rounded to one of them, and one
+    below a spacing is the local form: both are refused, ValueError naming ``range_over_d``)."""
+    n = points_per_diameter * range_over_d
+    L = int(round(n))
+    if L < 1 or abs(n - L) > 1e-9 * max(1.0, n):
+        raise ValueError(f"range_over_d = {range_over_d!r} is outside the valid range: 0, or a whole "
+                         f"number of point spacings k/ppd = k/{points_per_diameter} (k = 1, 2, ...) up to "
+                         f"{MAX_RANGE_OVER_D:g}")
+    return L
 
 
 def bond_weights(n_lags: int) -> np.ndarray:
