@@ -1,6 +1,7 @@
 """A trial, not part of the package: the nonlocal packing interaction in the Eulerian formulation.
 
-    python bench/check_nonlocal_eulerian.py [--case d22mm_a1.0] [--ppd 5 10 20] [--cap 1.0]
+    python bench/check_nonlocal_eulerian.py [--case d22mm_a1.0] [--ppd 5 10 20] [--cap 1.0] [--bulk 1.0]
+                                            [--restitution E] [--no-dem]
 
 The package runs the nonlocal interaction (``range_over_d`` > 0) in the Lagrangian formulation
 only; this script keeps the finite-volume trial that docs/model.md reports on, so that its
@@ -12,13 +13,20 @@ points of mass m/ppd placed by the inverse of the cumulative mass carry the bond
 Lagrangian form, and the force their bonds transmit across a face is the face's stress.  The
 HLLE wave speeds are those of the local law, capped at ``--cap`` times ω_max Δx/2 (ω_max the bond
 network's bound; below about 0.5 the run goes unstable), and the time step follows them.
+``--bulk`` scales the acoustic part of the wave bounds at faces inside the packed material
+(both cells at 0.95 ρ_c or denser, not a compaction face): 1 is the trial (HLLE everywhere), 0 a
+central flux there (upwinded at the flow speed only); the free surface keeps HLLE.
+``--restitution`` overrides the case's e (1: elastic bonds, the histories play no part).
 
 For one case of ``bsrflow compare --kernel packing`` it prints, at each ``--ppd``, the top maximum
-of the trial and of the package's nonlocal Lagrangian form against the DEM, and the velocities
-of the top three spheres 10 ms after the tap (in aω, floor frame): the Lagrangian form's top
-sphere is thrown ahead of the ones below (the dispersion of the interaction at the free top),
-the trial's top spheres move nearly together.  Writes nothing.  Takes minutes (the trial is
-slow: SSP-RK3 at the acoustic time step, L history fields).
+of the trial and of the package's nonlocal Lagrangian form against the DEM (``--no-dem``: only the
+probe below, no DEM and no run past it), and 10 ms after the tap (in aω, floor frame) the
+velocities of the third sphere below the top one, of the top three spheres (the top one last)
+and of the top four quarter-sphere slabs of material (top first), and the top slab's thickness in units of its packed thickness d/4: the
+Lagrangian form's top slab is thrown ahead of the material below it (the dispersion of the
+interaction at the free top) and stays nearly packed; the trial's top material moves with the
+rest and is smeared over several times its thickness.  Writes nothing.  Takes minutes (the
+trial is slow: SSP-RK3 at the acoustic time step, L history fields).
 """
 
 from __future__ import annotations
@@ -146,13 +154,17 @@ def _capped_waves(rL, uL, hL, rR, uR, hR, d, m, k1, k2, c_cap, rho_tiny):
 
 
 @numba.njit(cache=True)
-def nonlocal_fv_rhs(q, dq, hi, dx, accel, d, m, k1, k2, c_cap, rho_tiny, w, flux, sigf):
+def nonlocal_fv_rhs(q, dq, hi, dx, accel, d, m, k1, k2, c_cap, rho_tiny, w, flux, sigf, bulk):
     """dq = L(q) on cells 0..hi (ghosts filled, cells hi+1, hi+2 empty, ``sigf`` the face stress of
     :func:`face_stress` for this q): the local scheme's finite volumes
     (:func:`bsrflow.numerics.packing_kernels.fv_rhs`: minmod reconstruction of the primitives
     (ρ, u, h_1..h_L), first order at compaction faces, HLLE with Einfeldt's bounds from the local
     law at the face states, the lag-1 history's) for (ρu, ρu², ρuh_ℓ), with the nonlocal stress
     σ_f in the momentum flux in place of P; no face transmits tension.  Source ρ·accel.
+    ``bulk`` ∈ [0, 1] scales the wave bounds' excess over the flow speeds (S_L → β S_L + (1 − β)
+    min(u_L, u_R, 0), S_R likewise) at second-order faces between two cells both at 0.95 ρ_c or
+    denser: 1 is HLLE everywhere, 0 a central flux in the packed bulk (upwinded at the flow speed
+    only); the free surface and compaction fronts keep HLLE.
     Work arrays: w (2+L, n+5), flux (2+L, n+1)."""
     nv = q.shape[0]
     for j in range(hi + 4):
@@ -174,6 +186,9 @@ def nonlocal_fv_rhs(q, dq, hi, dx, accel, d, m, k1, k2, c_cap, rho_tiny, w, flux
         uL, uR = muscl_face_states(w, 1, jl, jr, hs)
         hL, hR = muscl_face_states(w, 2, jl, jr, hs)
         SL, SR, uL, uR, pL, pR = _capped_waves(rL, uL, hL, rR, uR, hR, d, m, k1, k2, c_cap, rho_tiny)
+        if bulk < 1.0 and hs > 0.0 and min(w[0, jl], w[0, jr]) * d >= 0.95 * m:
+            SL = bulk * SL + (1.0 - bulk) * min(uL, uR, 0.0)
+            SR = bulk * SR + (1.0 - bulk) * max(uL, uR, 0.0)
         f_mass = hlle_combine(SL, SR, rL * uL, rR * uR, rL, rR)
         f_mom = hlle_combine(SL, SR, rL * uL * uL, rR * uR * uR, rL * uL, rR * uR) + sigf[f]
         flux[0, f] = f_mass
@@ -228,7 +243,7 @@ def nonlocal_fv_post_step(q, hi, dx, d, mu, ppd, rho_floor, cum):
 
 @numba.njit(cache=True)
 def nonlocal_fv_advance(q, t, t_stop, dx, cfl, c_bound, d, m, k1, k2, rho_tiny, rho_floor, weights, ppd,
-                        n_virtual, fn, params, gravity, counters):
+                        n_virtual, fn, params, gravity, counters, bulk):
     """Advance the nonlocal Eulerian state from t to exactly t_stop with SSP-RK3 steps in
     increment form, Δt = cfl Δx / (c_bound + max|u|), the post-step passes after every step, the
     vacuum skip and the monitors of :func:`bsrflow.numerics.packing_kernels.fv_advance`
@@ -266,7 +281,7 @@ def nonlocal_fv_advance(q, t, t_stop, dx, cfl, c_bound, d, m, k1, k2, rho_tiny, 
         dt, last = clamped_step(t, t_stop, cfl * dx / (c_bound + umax))
         nonlocal_fill_ghosts(q, hi)
         face_stress(q, hi, dx, weights, mu, n_virtual, ppd, d, k1, k2, cum, xv, kv, fsum, sig, sigf)
-        nonlocal_fv_rhs(q, dq, hi, dx, -gravity - fn(t, params)[2], d, m, k1, k2, c_bound, rho_tiny, w, flux, sigf)
+        nonlocal_fv_rhs(q, dq, hi, dx, -gravity - fn(t, params)[2], d, m, k1, k2, c_bound, rho_tiny, w, flux, sigf, bulk)
         for v in range(nv):
             for k in range(hi + 1):
                 inc1[v, k] = dt * dq[v, k]
@@ -274,7 +289,7 @@ def nonlocal_fv_advance(q, t, t_stop, dx, cfl, c_bound, d, m, k1, k2, rho_tiny, 
         nonlocal_fill_ghosts(q1, hi)
         face_stress(q1, hi, dx, weights, mu, n_virtual, ppd, d, k1, k2, cum, xv, kv, fsum, sig, sigf)
         nonlocal_fv_rhs(q1, dq, hi, dx, -gravity - fn(t + dt, params)[2], d, m, k1, k2, c_bound, rho_tiny, w, flux,
-                        sigf)
+                        sigf, bulk)
         for v in range(nv):
             for k in range(hi + 1):
                 inc2[v, k] = dt * dq[v, k]
@@ -282,7 +297,7 @@ def nonlocal_fv_advance(q, t, t_stop, dx, cfl, c_bound, d, m, k1, k2, rho_tiny, 
         nonlocal_fill_ghosts(q2, hi)
         face_stress(q2, hi, dx, weights, mu, n_virtual, ppd, d, k1, k2, cum, xv, kv, fsum, sig, sigf)
         nonlocal_fv_rhs(q2, dq, hi, dx, -gravity - fn(t + 0.5 * dt, params)[2], d, m, k1, k2, c_bound, rho_tiny, w,
-                        flux, sigf)
+                        flux, sigf, bulk)
         for v in range(nv):
             for k in range(hi + 1):
                 q[v, NG + k] += (inc1[v, k] + inc2[v, k]) / 6.0 + (2.0 / 3.0) * (dt * dq[v, k])
@@ -299,7 +314,7 @@ def nonlocal_fv_advance(q, t, t_stop, dx, cfl, c_bound, d, m, k1, k2, rho_tiny, 
 class NonlocalEulerianTrial(EulerianPacking):
     """The trial's driver: :class:`EulerianPacking` with the state (ρ, ρu, ρh_1..ρh_L)."""
 
-    def __init__(self, law, grid, n_spheres, motion, gravity, points_per_diameter, cfl=0.4, rho0=None, cap=1.0):
+    def __init__(self, law, grid, n_spheres, motion, gravity, points_per_diameter, cfl=0.4, rho0=None, cap=1.0, bulk=1.0):
         from dataclasses import replace
         super().__init__(replace(law, range_over_d=0.0), grid, n_spheres, motion, gravity, points_per_diameter, cfl,
                          rho0)
@@ -311,34 +326,44 @@ class NonlocalEulerianTrial(EulerianPacking):
         self.q = q
         omega = 2.0 / nonlocal_time_step_bound(self.weights, self.ppd, law.k2, law.particle_mass)
         self.c_bound = min(self.c_bound, cap * omega * grid.dx / 2.0)
+        self.bulk = float(bulk)
 
     def advance(self, t, t_stop):
         law = self.law
         self.counters[1:] = 0
         t = nonlocal_fv_advance(self.q, float(t), float(t_stop), self.grid.dx, self.cfl, self.c_bound, law.diameter,
                                 law.particle_mass, law.k1, law.k2, self.rho_tiny, self.rho_floor, self.weights,
-                                float(self.ppd), self.n_virtual, self._fn, self._params, self.gravity, self.counters)
+                                float(self.ppd), self.n_virtual, self._fn, self._params, self.gravity, self.counters, self.bulk)
         self.steps = int(self.counters[0])
         if self.counters[1]:
             raise PackingError(f"trial stopped (status {int(self.counters[1])}) at t = {t:.6g} s", t)
         return t
 
 
-def trial_column(setup, cap):
+def trial_column(setup, cap, bulk=1.0):
     law, grid = setup.packing_law(), setup.grid()
     rho0 = np.where(grid.x < setup.n_spheres * setup.diameter, law.close_packing_density, 0.0)
     return NonlocalEulerianTrial(law, grid, setup.n_spheres, setup.motion(), setup.gravity,
-                                 setup.points_per_diameter, rho0=rho0, cap=cap)
+                                 setup.points_per_diameter, rho0=rho0, cap=cap, bulk=bulk)
 
 
-def sphere_velocities(disc, n, m):
+def top_slabs(disc, n, m, slabs=4):
+    """Velocities [m/s] of the top ``slabs`` quarter-sphere slabs of material (top first), of
+    the top three spheres (the top one last) and of the third sphere below the top one, and the
+    top slab's thickness [m]: by the cumulative mass and momentum of the observed fields in both
+    formulations."""
     rho, u, _, _ = disc.observe()
-    if hasattr(disc, "v"):
-        return disc.v.reshape(n, -1).mean(axis=1)
     dx = disc.grid.dx
+    faces = disc.grid.x[0] - 0.5 * dx + dx * np.arange(len(rho) + 1)
     cum = np.concatenate([[0.0], np.cumsum(rho) * dx])
     mom = np.concatenate([[0.0], np.cumsum(rho * u) * dx])
-    return np.diff(np.interp(np.arange(n + 1) * m, cum, mom)) / m
+    top = n * m * (1.0 - 1e-12)
+    edges = top - 0.25 * m * np.arange(slabs + 1)
+    slab_v = -np.diff(np.interp(edges, cum, mom)) / (0.25 * m)
+    spheres = np.concatenate([(n - np.arange(4, 0, -1)) * m, [top]])
+    sphere_v = np.diff(np.interp(spheres, cum, mom)) / m
+    x = np.interp(edges[:2], cum, faces)
+    return slab_v, sphere_v, x[0] - x[1]
 
 
 def main(argv=None):
@@ -347,36 +372,61 @@ def main(argv=None):
     ap.add_argument("--case", default="d22mm_a1.0", choices=names, metavar="NAME", help="one of: " + ", ".join(names))
     ap.add_argument("--ppd", type=int, nargs="+", default=[5, 10, 20])
     ap.add_argument("--cap", type=float, default=1.0)
+    ap.add_argument("--bulk", type=float, default=1.0,
+                    help="dissipation in the packed bulk, 1 = HLLE (the trial), 0 = central flux (default 1)")
+    ap.add_argument("--restitution", type=float, default=None, help="override the case's e, in (0, 1]")
+    ap.add_argument("--no-dem", action="store_true", help="skip the DEM and the runs after the probe")
     args = ap.parse_args(argv)
     for p in args.ppd:
         if p < 2:
             ap.error(f"--ppd {p} outside the valid range [2, inf)")
     if not (math.isfinite(args.cap) and args.cap > 0.0):
         ap.error(f"--cap {args.cap} outside the valid range (0, inf)")
+    if not 0.0 <= args.bulk <= 1.0:
+        ap.error(f"--bulk {args.bulk} outside the valid range [0, 1]")
+    if args.restitution is not None and not 0.0 < args.restitution <= 1.0:
+        ap.error(f"--restitution {args.restitution} outside the valid range (0, 1]")
     case = next(c for c in PACKING_CASES if c["name"] == args.case)
     base = ColumnSetup(kernel_name="packing", formulation="lagrangian", range_over_d=1.0)
     s0 = case_setup(case, base, formulation="lagrangian")
-    t_d, pos, _ = run_dem_column(s0)
-    dem = _metrics(t_d, pos[:, -1], pos.mean(axis=1), s0)
+    if args.restitution is not None:
+        s0 = s0.with_(restitution=args.restitution)
     d, aw, m = s0.diameter, s0.amplitude * s0.omega, s0.particle_mass
-    print(f"{args.case}: DEM top maximum {dem['top_max_over_d']:.2f} d")
-    print(f"{'form':22s} {'ppd':>4s} {'top max/d':>9s} {'vs DEM':>7s}  top three spheres at tap + 10 ms [aw]  wall [s]")
+    dem_top = None
+    if not args.no_dem:
+        t_d, pos, _ = run_dem_column(s0)
+        dem_top = _metrics(t_d, pos[:, -1], pos.mean(axis=1), s0)["top_max_over_d"]
+        print(f"{args.case} (e = {s0.restitution}): DEM top maximum {dem_top:.2f} d")
+    print(f"tap + 10 ms: velocities [aw] of the third sphere below the top one ('3rd'), of the top three "
+          f"spheres (the top one last) and of the top four quarter-sphere slabs (top first); the top slab's "
+          f"thickness [d/4]; bulk = {args.bulk}")
+    print(f"{'form':22s} {'ppd':>4s} {'top max/d':>9s} {'vs DEM':>7s}  {'3rd':>5s}  {'spheres':20s} {'slabs':27s} "
+          f"{'thick':>6s} wall [s]")
     for p in args.ppd:
         s = s0.with_(points_per_diameter=p)
-        for name, disc in (("lagrangian (package)", s.packing_discretisation()), ("eulerian (trial)", trial_column(s, args.cap))):
+        for name, disc in (("lagrangian (package)", s.packing_discretisation()),
+                           ("eulerian (trial)", trial_column(s, args.cap, args.bulk))):
             w = time.perf_counter()
             t_probe = s.tap_start + 0.01
             saves = np.round(np.arange(0.0, s.t_end + 1e-12, s.save_every), 9)
-            first = run_packing(disc, t_probe, saves[saves <= t_probe])
-            v = sphere_velocities(disc, s.n_spheres, m)[-3:] / aw
-            rest = run_packing(disc, s.t_end, saves[saves > t_probe], t_start=t_probe)
-            res = first
-            for k in ("t", "rho", "u", "tracers", "floor"):
-                setattr(res, k, np.concatenate([getattr(first, k), getattr(rest, k)]))
-            run = column_run_from_result(s, disc.grid, res)
-            mm = _metrics(run.t, run.top, run.mass_centre, s)
-            print(f"{name:22s} {p:4d} {mm['top_max_over_d']:9.2f} {mm['top_max_over_d'] / dem['top_max_over_d'] - 1:+7.1%}  "
-                  f"{' '.join(f'{x:.3f}' for x in v):30s} {time.perf_counter() - w:8.1f}", flush=True)
+            top_txt = f"{'-':>9s} {'-':>7s}"
+            try:
+                first = run_packing(disc, t_probe, saves[saves <= t_probe])
+                v, vs, thick = top_slabs(disc, s.n_spheres, m)
+                if dem_top is not None:
+                    rest = run_packing(disc, s.t_end, saves[saves > t_probe], t_start=t_probe)
+                    res = first
+                    for k in ("t", "rho", "u", "tracers", "floor"):
+                        setattr(res, k, np.concatenate([getattr(first, k), getattr(rest, k)]))
+                    run = column_run_from_result(s, disc.grid, res)
+                    top = _metrics(run.t, run.top, run.mass_centre, s)["top_max_over_d"]
+                    top_txt = f"{top:9.2f} {top / dem_top - 1:+7.1%}"
+            except PackingError as err:
+                print(f"{name:22s} {p:4d} stopped: {err}", flush=True)
+                continue
+            print(f"{name:22s} {p:4d} {top_txt}  {vs[0] / aw:5.3f}  {' '.join(f'{x / aw:.3f}' for x in vs[1:]):20s} "
+                  f"{' '.join(f'{x / aw:.3f}' for x in v):27s} {thick / (0.25 * d):6.2f} {time.perf_counter() - w:8.1f}",
+                  flush=True)
 
 
 if __name__ == "__main__":
