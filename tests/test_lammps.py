@@ -408,3 +408,32 @@ def test_compare_dump_name_option_and_distinct_default_names(tmp_path, dem_resul
     capsys.readouterr()
     assert main(["compare-dump", plain, *common, "--name", "a/b"]) == 2
     assert "--name" in capsys.readouterr().err
+
+
+def test_compare_dump_runs_the_packing_continuum(tmp_path, small_setup, dem_result, capsys):
+    """`--kernel packing`: the packing continuum (Lagrangian, R = d, nothing fitted) against the
+    dump, named in the printed line and the JSON; its metrics are compare_with_dump's of that
+    run; the seed kernel's parameters are refused with it in one line (exit 2)."""
+    from bsrflow.analysis.compare_dump import compare_with_dump
+    from bsrflow.cli import main
+    from bsrflow.physics.column import run_bsr_column
+
+    res = dem_result
+    path = str(tmp_path / "pk.dump")
+    dt = _dump_of(res, path)
+    js = str(tmp_path / "pk.json")
+    common = ["compare-dump", path, "--dt", repr(dt), "--n-spheres", "3", "--ppd", "4", "--tap-start", "0.02",
+              "--set", "save_every=0.005"]
+    assert main(common + ["--kernel", "packing", "--json", js]) == 0
+    assert "packing lagrangian R=1d top" in capsys.readouterr().out
+    result = json.load(open(js))
+    assert result["model"] == "packing lagrangian R=1d" and result["setup"]["kernel_name"] == "packing"
+    s = small_setup.with_(kernel_name="packing", formulation="lagrangian", t_end=result["setup"]["t_end"])
+    expect = compare_with_dump(run_bsr_column(s), read_dump(path, timestep_size=dt))
+    assert result["bsr"] == expect["bsr"] and result["dem"] == pytest.approx(expect["dem"], rel=1e-12)
+    assert result["mass_centre_rms_over_d"] == pytest.approx(expect["mass_centre_rms_over_d"], rel=1e-12)
+    for extra, word in ((["--m0", "400"], "--m0"), (["--set", "eps=0.5"], "--set eps"),
+                        (["--set", "kernel=seed"], "contradicts")):
+        assert main(common + ["--kernel", "packing"] + extra) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and word in err[0]

@@ -125,3 +125,20 @@ def test_layer_tracers_in_the_vtk_files(tmp_path):
     np.testing.assert_allclose(cloud.points[:, 2], ds["tracer_z"].values[3] - ds["floor"].values[3], rtol=1e-12)
     np.testing.assert_array_equal(cloud.point_data["tracer [1]"], [0.0, 1.0])
     ds.close()
+
+
+def test_resume_of_a_finished_layer_run_does_nothing(tmp_path, capsys):
+    """`--resume` on a finished layer output leaves it as it is and says so (exit 0), as for a
+    column; without the finished file it is refused in one line."""
+    cfg = tmp_path / "layer.toml"
+    cfg.write_text(CONFIG.replace("vtk = true", "vtk = false").replace("t_end = 0.12", "t_end = 0.03"))
+    out = tmp_path / "layer.nc"
+    assert main(["run", str(cfg), "--out", str(out), "--quiet"]) == 0
+    before = out.read_bytes()
+    capsys.readouterr()
+    assert main(["run", str(cfg), "--out", str(out), "--resume"]) == 0
+    assert "complete already" in capsys.readouterr().out
+    assert out.read_bytes() == before
+    assert main(["run", str(cfg), "--out", str(tmp_path / "other.nc"), "--resume"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "no checkpoint" in lines[0]

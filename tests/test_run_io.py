@@ -484,3 +484,23 @@ def test_packing_run_resumes_after_sigkill_bit_for_bit(tmp_path, capsys, form):
     da, db = assert_same_variables(out, full)
     assert da.attrs["status"] == "ok" and da.attrs["steps"] == db.attrs["steps"]
     assert da.attrs["kernel"] == "packing" and da.attrs["formulation"] == form
+
+
+@pytest.mark.parametrize("kind", ["seed", "packing"])
+def test_resume_of_a_finished_run_does_nothing(tmp_path, capsys, kind):
+    """`--resume` on an output whose run finished (status ok, checkpoint removed) leaves it as it
+    is and says so, for the seed's kernel and the packing continuum alike (exit 0); without the
+    finished file it is refused in one line."""
+    cfg_path = write_config(tmp_path / "c.toml", extra="formulation = \"lagrangian\"" if kind == "packing" else "")
+    if kind == "packing":
+        cfg_path.write_text(cfg_path.read_text() + "[model]\nkernel = \"packing\"\n")
+    out = tmp_path / "c.nc"
+    assert main(["run", str(cfg_path), "--out", str(out), "--quiet"]) == 0
+    before = out.read_bytes()
+    capsys.readouterr()
+    assert main(["run", str(cfg_path), "--out", str(out), "--resume"]) == 0
+    assert "complete already" in capsys.readouterr().out
+    assert out.read_bytes() == before
+    assert main(["run", str(cfg_path), "--out", str(tmp_path / "other.nc"), "--resume"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "no checkpoint" in lines[0]

@@ -1,9 +1,11 @@
 """BSR continuum against an external DEM (LAMMPS / LIGGGHTS dump) for the tapped column.
 
-``bsrflow compare-dump DUMP --dt SECONDS [--config CONFIG.toml] ...`` reads the dump
-(:func:`bsrflow.io.lammps.read_dump`), runs the BSR column of the configuration to the dump's
-last time and reports the metrics and figures that ``bsrflow compare`` reports for the package's
-own DEM (:mod:`bsrflow.analysis.compare`):
+``bsrflow compare-dump DUMP --dt SECONDS [--config CONFIG.toml] [--kernel packing] ...`` reads the
+dump (:func:`bsrflow.io.lammps.read_dump`), runs the continuum column of the configuration to the
+dump's last time (the seed's kernel, or with ``--kernel packing`` / ``model.kernel = "packing"``
+the packing continuum, nothing fitted; its ``model`` in the JSON and the printed line) and
+reports the metrics and figures that ``bsrflow compare`` reports for the package's own DEM
+(:mod:`bsrflow.analysis.compare`):
 
 * ``top_max_over_d``, ``t_top_max``: maximum of the top height over t >= tap_start (the first
   tap) and its time [s], from ``compare._metrics``; the DEM top is the highest sphere centre
@@ -152,7 +154,7 @@ def compare_with_dump(run, dump, floor: float = 0.0, diameter: float | None = No
     heights = dump.heights(axis)[use] - float(floor)
     top = heights.max(axis=1)
     centre = dump.mass_centre(axis)[use] - float(floor)
-    out = {"name": name, "a_over_d": s.a_over_d, "taps": s.n_taps, "d": d}
+    out = {"name": name, "model": continuum_label(s), "a_over_d": s.a_over_d, "taps": s.n_taps, "d": d}
     out.update(case_metrics(run, t_d, top, centre, d))
     warnings = []
     if dump.n_atoms != s.n_spheres:
@@ -182,11 +184,20 @@ def compare_with_dump(run, dump, floor: float = 0.0, diameter: float | None = No
     return out
 
 
+def continuum_label(setup) -> str:
+    """What ran: 'seed kernel' or 'packing <formulation> R=..d' / 'packing <formulation> local'
+    (:func:`bsrflow.physics.column.model_label`)."""
+    from ..physics.column import model_label
+    if setup.kernel_name != "packing":
+        return "seed kernel"
+    return "packing " + model_label(setup.formulation, setup.interaction_range())
+
+
 def format_line(result) -> str:
     """One-line summary in the layout of ``bsrflow compare``'s table."""
     b, m = result["bsr"], result["dem"]
     dt = result["t_top_max_rel_diff"]
-    return (f"{result['name']}: BSR top {b['top_max_over_d']:.2f} d at {b['t_top_max']:.3f} s | "
+    return (f"{result['name']}: {result.get('model', 'BSR')} top {b['top_max_over_d']:.2f} d at {b['t_top_max']:.3f} s | "
             f"dump top {m['top_max_over_d']:.2f} d at {m['t_top_max']:.3f} s | "
             f"dtop {100 * result['top_max_rel_diff']:.1f}% | dt {'n/a' if dt is None else f'{100 * dt:.1f}%'} | "
             f"mass-centre RMS {result['mass_centre_rms_over_d']:.3f} d")
@@ -232,6 +243,10 @@ def add_parser(sub):
                    help="subtracted from the dump's times [s] (default 0)")
     p.add_argument("--type", type=int, action="append", dest="types", metavar="T",
                    help="use only atoms of this type (repeatable; default all)")
+    p.add_argument("--kernel", choices=("seed", "packing"), default=None,
+                   help="the continuum: the seed's kernel (m0, eps) or the packing continuum (the contact "
+                        "law, nothing fitted; Lagrangian, R = d unless the config or --set say otherwise); "
+                        "default: the config's model.kernel, else seed")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="override any column parameter (repeatable), e.g. --set restitution=0.8")
     for opt, _field, typ, h in _SETUP_OPTIONS:
@@ -279,11 +294,24 @@ def _main(args) -> int:
         v = getattr(args, fld)
         if v is not None:
             overrides[fld] = v
+    if args.kernel is not None:
+        if overrides.get("kernel", args.kernel) != args.kernel:
+            raise ValueError(f"--kernel {args.kernel} contradicts --set kernel={overrides['kernel']}")
+        overrides["kernel"] = args.kernel
     if "t_end" not in overrides:
         overrides["t_end"] = float(dump.t[-1] - args.time_offset)
     source = SetupSource.load(args.config)
     source.check_names(overrides)
     setup, scheme = source.setup_and_scheme(overrides)
+    if setup.kernel_name == "packing":
+        from ..tools.setup_source import canonical_name
+        seed_only = ("m0", "kernel_dissipation", "scheme", "stepper", "rtol", "atol")
+        given = [opt for opt, fld, _t, _h in _SETUP_OPTIONS if fld in seed_only and getattr(args, fld) is not None]
+        given += [f"--set {k}" for k in (item.partition("=")[0].strip() for item in args.set)
+                  if canonical_name(k) in seed_only]
+        if given:
+            raise ValueError(f"{given[0]} is a parameter of the seed kernel only; the packing continuum has none "
+                             "of m0, eps, scheme, stepper, rtol, atol: leave it out")
     t_rel = dump.t - args.time_offset
     after = (t_rel >= setup.tap_start - 1e-12) & (t_rel <= setup.t_end + 1e-9 * max(1.0, setup.t_end))
     if after.any():
@@ -293,8 +321,8 @@ def _main(args) -> int:
                              f"first tap is {highest:g} m above the floor at rest, not above it; check the floor "
                              "offset and --axis")
     print(f"bsrflow compare-dump: {args.dump}: {dump.n_atoms} atoms, {dump.n_snapshots} snapshots, "
-          f"t = {dump.t[0]:g} to {dump.t[-1]:g} s; BSR to t = {setup.t_end:g} s, scheme "
-          f"{setup.scheme if scheme is None else scheme.name}"
+          f"t = {dump.t[0]:g} to {dump.t[-1]:g} s; {continuum_label(setup)} to t = {setup.t_end:g} s"
+          + ("" if setup.kernel_name == "packing" else f", scheme {setup.scheme if scheme is None else scheme.name}")
           + ("" if args.config is None else
              f" (config {args.config}{'' if source.uses_config_module else ', fallback reader'})"))
     run = run_bsr_column(setup, scheme=scheme)

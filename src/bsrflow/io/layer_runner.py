@@ -152,6 +152,8 @@ class LayerOutcome:
     vtk: str | None
 
     def summary(self) -> str:
+        if self.status != "ok":
+            return f"{self.status}: {self.n_snapshots} snapshots to t = {self.t_end:.6g} s; file {self.path}"
         resumed = f" (resumed from t = {self.resumed_from:.6g} s)" if self.resumed_from is not None else ""
         vtk = f"; VTK {self.vtk}" if self.vtk else ""
         return (f"{self.status}: {self.n_snapshots} snapshots to t = {self.t_end:.6g} s, {self.steps} steps{resumed}; "
@@ -170,6 +172,11 @@ def _checkpoint_times(save_times, interval):
 def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=None) -> LayerOutcome:
     """Run a layer config into ``out`` (module docstring)."""
     from ..physics.packing_bed import PackingBed
+    from .paths import check_output_file
+    if resume and not os.path.exists(checkpoint_path(check_output_file(out, "--out"))):
+        done = _complete_layer(out, log or (lambda msg: None))
+        if done is not None:
+            return done
     if isinstance(cfg.setup, PackingBed):
         return _run_packing_bed(cfg, out, resume=resume, progress=progress, log=log)
     from ..numerics.solver import Scheme
@@ -302,6 +309,23 @@ def _run_files(cfg: LayerConfig, out):
     save_times = save_schedule(0.0, cfg.setup.t_end, cfg.setup.save_every)
     vtk_stem = os.path.splitext(out)[0] + "_vtk" if cfg.vtk else None
     return save_times, _checkpoint_times(save_times, cfg.checkpoint_every), checkpoint_path(out), vtk_stem
+
+
+def _complete_layer(out, log) -> LayerOutcome | None:
+    """The outcome of ``--resume`` on a layer output whose run finished (status "ok"; its
+    checkpoint was removed): nothing to do.  None when ``out`` is not such a file."""
+    from .netcdf import read_snapshots
+    if not os.path.exists(out):
+        return None
+    try:
+        data, attrs = read_snapshots(out)
+    except Exception:
+        return None
+    if attrs.get("status") != "ok":
+        return None
+    log(f"{out} is complete already (status ok); nothing to resume")
+    return LayerOutcome(os.fspath(out), "complete already", int(data["time"].size), float(data["time"][-1]),
+                        int(attrs.get("steps", 0)), 0.0, None, None)
 
 
 def _read_layer_checkpoint(ck_file, cfg: LayerConfig) -> Checkpoint:

@@ -119,6 +119,12 @@ def run_config(config: Config, out, *, resume: bool = False, progress=None, log=
     ckpt_file = checkpoint_path(out)
     if os.path.isdir(ckpt_file):
         raise ConfigError("--out", f"the checkpoint file {ckpt_file} of this output is a directory")
+    if resume and not os.path.exists(ckpt_file):
+        done = _complete_output(out, config.column_setup().diameter, log)
+        if done is not None:
+            return done
+        raise ConfigError("--resume", f"no checkpoint {ckpt_file} to resume from (checkpoints are "
+                          "written unless run.checkpoint_every = 0); run without --resume to start over")
     if config["model.kernel"] == "packing":
         return _run_packing_config(config, out, resume=resume, progress=progress, log=log)
     setup, grid, model, sim = column_simulation(config)
@@ -133,20 +139,6 @@ def run_config(config: Config, out, *, resume: bool = False, progress=None, log=
 
     steps0, rejected0, wall0, t0 = 0, 0, 0.0, 0.0
     if resume:
-        if not os.path.exists(ckpt_file):
-            if os.path.exists(out):
-                try:
-                    data, attrs = read_snapshots(out)
-                except Exception:
-                    attrs, data = {}, None
-                if attrs.get("status") == "ok" and data is not None:
-                    top = data["top"] / setup.diameter
-                    i = int(np.nanargmax(top)) if np.any(np.isfinite(top)) else 0
-                    log(f"{out} is complete already (status ok); nothing to resume")
-                    return RunOutcome(out, "complete already", int(data["time"].size),
-                                      float(data["time"][-1]), 0, 0.0, float(top[i]), float(data["time"][i]))
-            raise ConfigError("--resume", f"no checkpoint {ckpt_file} to resume from (checkpoints are "
-                              "written unless run.checkpoint_every = 0); run without --resume to start over")
         if not os.path.exists(out):
             raise ConfigError("--resume", f"the checkpoint {ckpt_file} exists but the output {out} does not; "
                               "run without --resume to start over")
@@ -205,6 +197,25 @@ def run_config(config: Config, out, *, resume: bool = False, progress=None, log=
                       wall0 + _time.perf_counter() - wall_start, float(top[i]), float(t[i]),
                       resumed_from=t0 if resume else None, compile_time=compile_time,
                       rejected_steps=rejected, adaptive=sim.scheme.rtol is not None)
+
+
+def _complete_output(out, diameter, log) -> RunOutcome | None:
+    """The outcome of ``--resume`` on an output whose run finished (status "ok"; its checkpoint
+    was removed): nothing to do, the file as it is.  None when ``out`` is not such a file.
+    The same for every column run (the seed's kernel and both packing formulations)."""
+    if not os.path.exists(out):
+        return None
+    try:
+        data, attrs = read_snapshots(out)
+    except Exception:
+        return None
+    if attrs.get("status") != "ok":
+        return None
+    top = data["top"] / diameter
+    i = int(np.nanargmax(top)) if np.any(np.isfinite(top)) else 0
+    log(f"{out} is complete already (status ok); nothing to resume")
+    return RunOutcome(out, "complete already", int(data["time"].size), float(data["time"][-1]), 0, 0.0,
+                      float(top[i]), float(data["time"][i]))
 
 
 def _read_matching_checkpoint(config: Config, ckpt_file) -> Checkpoint:
@@ -298,9 +309,6 @@ def _run_packing_config(config: Config, out, *, resume=False, progress=None, log
 
     steps0, wall0, t0 = 0, 0.0, 0.0
     if resume:
-        if not os.path.exists(ckpt_file):
-            raise ConfigError("--resume", f"no checkpoint {ckpt_file} to resume from (checkpoints are "
-                              "written when run.checkpoint_every > 0); run without --resume to start over")
         if not os.path.exists(out):
             raise ConfigError("--resume", f"the checkpoint {ckpt_file} exists but the output {out} does not; "
                               "run without --resume to start over")
