@@ -178,3 +178,26 @@ def test_initial_density_is_linear_in_spheres_plus_cells():
     low = inside & (x < 100 * s.diameter)
     np.testing.assert_allclose(rho[low], line, rtol=1e-13)
     assert np.all(rho[x > (s.n_spheres + 0.5) * s.diameter + 1e-9] == 0.0)     # above the top bump
+
+
+def test_a_closed_standard_output_ends_quietly_with_141(monkeypatch, capsys):
+    """`bsrflow ... | head`: when the reader of stdout goes away the command stops with exit code
+    141 (the shell's code for SIGPIPE) and no traceback."""
+    import argparse
+
+    import bsrflow.cli as cli
+
+    def build():
+        p = argparse.ArgumentParser(prog="bsrflow")
+        sub = p.add_subparsers(dest="command")
+        q = sub.add_parser("talk")
+
+        def talk(args):
+            print("first line")
+            raise BrokenPipeError(32, "Broken pipe")
+        q.set_defaults(func=talk)
+        return p
+    monkeypatch.setattr(cli, "build_parser", build)
+    assert cli.main(["talk"]) == 141
+    captured = capsys.readouterr()
+    assert captured.err == "" and captured.out == "first line\n"

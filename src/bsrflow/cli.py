@@ -3,14 +3,15 @@
 Each command lives in its own module that defines ``add_parser(subparsers)``; the parser it
 adds sets ``func(args) -> int``.  Exit codes: 0 success, 2 invalid input (one line on
 stderr naming the problem), 3 a simulation stopped early (the message says when and where;
-outputs written so far are kept), 130 (143) interrupted by Ctrl-C (SIGTERM), 1 anything
-unexpected.
+outputs written so far are kept), 130 (143) interrupted by Ctrl-C (SIGTERM), 141 the reader of
+the standard output went away (``| head``), 1 anything unexpected.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 from . import __version__
@@ -61,6 +62,15 @@ def main(argv=None) -> int:
         msg = " ".join(str(exc).split()) or "interrupted"
         print(f"bsrflow {args.command}: {msg}", file=sys.stderr)
         return int(getattr(exc, "exit_code", 130))
+    except BrokenPipeError:
+        # the reader of the standard output went away (``bsrflow ... | head``): stop quietly with
+        # the shell's code for SIGPIPE, as Unix tools do; stdout goes to /dev/null so that the
+        # interpreter's final flush does not fail again
+        try:
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        except (OSError, ValueError):
+            pass
+        return 141
 
 
 if __name__ == "__main__":

@@ -31,6 +31,7 @@ import types
 
 import numpy as np
 
+from ..physics.column import continuum_label
 from .compare import _metrics
 
 __all__ = ["case_metrics", "compare_with_dump", "check_dump", "case_name", "dump_floor", "add_parser"]
@@ -182,15 +183,6 @@ def compare_with_dump(run, dump, floor: float = 0.0, diameter: float | None = No
         kinds = (["density"] if s.n_taps == 1 else []) + ["trajectories", "top_centre"]
         out["figures"] = [f"{name}_{k}.png" for k in kinds]
     return out
-
-
-def continuum_label(setup) -> str:
-    """What ran: 'seed kernel' or 'packing <formulation> R=..d' / 'packing <formulation> local'
-    (:func:`bsrflow.physics.column.model_label`)."""
-    from ..physics.column import model_label
-    if setup.kernel_name != "packing":
-        return "seed kernel"
-    return "packing " + model_label(setup.formulation, setup.interaction_range())
 
 
 def format_line(result) -> str:

@@ -307,8 +307,9 @@ Measured on the 14 cases of the packing comparison (10 points per diameter) by `
 bench/packing_stiffness.py --formulation F [--range R]`` (docs/model.md, "Stiffness"; tested).
 The nonlocal interaction (R = d, ``--formulation lagrangian``): at most 0.51 % and 0.094 d at
 M = 0.01 (0.45 % and 0.025 d at M = 0.003; docs/results/packing_stiffness_nonlocal_2026-12-02.json),
-documented as 1 % and 0.15 d.  The local limit, Lagrangian: at most 1.27 % and
-0.20 d at M = 0.01 (0.40 % and 0.048 d at M = 0.003); Eulerian at most 0.87 % and 1.08 d at
+documented as 1 % and 0.15 d.  The local limit, Lagrangian: at most 1.07 % and
+0.20 d at M = 0.01 (0.34 % and 0.048 d at M = 0.003;
+docs/results/packing_stiffness_local_lagrangian_2026-12-02.json); Eulerian at most 0.87 % and 1.08 d at
 M = 0.01 (the three-tap a/d = 1.0 case; 0.38 d in the other 13), 0.26 % and 0.154 d at M = 0.003
 (docs/results/packing_stiffness_eulerian_2026-12-01.json).  The Eulerian mass centre after a
 landing is sensitive (its landing bounce, docs/model.md): at the true stiffness it moves by as
@@ -321,6 +322,14 @@ def model_label(formulation: str, range_over_d: float) -> str:
     """The name of a packing model: 'lagrangian R=1d', or 'eulerian local' for the local limit
     (R = 0)."""
     return f"{formulation} " + ("local" if range_over_d == 0.0 else f"R={range_over_d:g}d")
+
+
+def continuum_label(setup) -> str:
+    """What a column setup runs: 'seed kernel', or 'packing ' + :func:`model_label` ('packing
+    lagrangian R=1d', 'packing eulerian local', ...)."""
+    if setup.kernel_name != "packing":
+        return "seed kernel"
+    return "packing " + model_label(setup.formulation, setup.interaction_range())
 
 
 def stiffness_model(setup) -> str:

@@ -46,6 +46,7 @@ import time
 import numpy as np
 
 from .setup_source import SetupSource, canonical_name, coerce_value, parameter_info, parse_value
+from ..physics.column import continuum_label
 
 __all__ = ["parse_param", "parse_params", "make_cases", "check_cases", "check_scheduler", "run_case", "run_sweep", "to_dataset", "sweep_figure",
            "RESULTS", "add_parser"]
@@ -341,10 +342,11 @@ def to_dataset(params: dict, cases, results, source: SetupSource | None = None):
     data["error"] = xr.Variable(names, error.astype(str), attrs={"long_name": "error message ('' if ok)"})
     source = source or SetupSource()
     try:
-        base = source.column_setup({}).to_dict()
-        base_json = json.dumps(base)
+        base_setup = source.column_setup({})
+        base_json = json.dumps(base_setup.to_dict())
+        model = continuum_label(base_setup)
     except Exception as exc:  # noqa: BLE001 - only provenance
-        base_json = f"unavailable: {_one_line(exc)}"
+        base_json = model = f"unavailable: {_one_line(exc)}"
     n_ok = int(np.sum(status == "ok"))
     attrs = {
         "title": "bsrflow parameter sweep of the tapped column",
@@ -357,6 +359,7 @@ def to_dataset(params: dict, cases, results, source: SetupSource | None = None):
                           ("fallback TOML reader" if source.path else "ColumnSetup defaults")),
         "config": source.text,
         "base_setup": base_json,
+        "model": model,
         "fixed_overrides": json.dumps(source.fixed),
     }
     return xr.Dataset(data, coords=coords, attrs=attrs)
@@ -467,7 +470,11 @@ def _main(args) -> int:
     if args.scheduler:
         check_scheduler(args.scheduler)
     where = args.scheduler or f"a LocalCluster of {args.workers} worker processes"
-    print(f"bsrflow sweep: {n} case(s) over {', '.join(params)} on {where}"
+    try:
+        model = f" of the {continuum_label(source.column_setup({}))}"
+    except Exception:  # noqa: BLE001 - the cases were checked; only the wording
+        model = ""
+    print(f"bsrflow sweep: {n} case(s){model} over {', '.join(params)} on {where}"
           + (f"; config {args.config} ({'bsrflow.io.config' if source.uses_config_module else 'fallback reader'})"
              if args.config else ""))
     ds = run_sweep(params, source, scheduler=args.scheduler, n_workers=args.workers)
