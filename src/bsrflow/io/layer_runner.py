@@ -314,18 +314,13 @@ def _run_files(cfg: LayerConfig, out):
 def _complete_layer(out, log) -> LayerOutcome | None:
     """The outcome of ``--resume`` on a layer output whose run finished (status "ok"; its
     checkpoint was removed): nothing to do.  None when ``out`` is not such a file."""
-    from .netcdf import read_snapshots
-    if not os.path.exists(out):
-        return None
-    try:
-        data, attrs = read_snapshots(out)
-    except Exception:
-        return None
-    if attrs.get("status") != "ok":
+    from .netcdf import finished_snapshots
+    data = finished_snapshots(out)
+    if data is None:
         return None
     log(f"{out} is complete already (status ok); nothing to resume")
     return LayerOutcome(os.fspath(out), "complete already", int(data["time"].size), float(data["time"][-1]),
-                        int(attrs.get("steps", 0)), 0.0, None, None)
+                        int(data["attrs"].get("steps", 0)), 0.0, None, None)
 
 
 def _read_layer_checkpoint(ck_file, cfg: LayerConfig) -> Checkpoint:

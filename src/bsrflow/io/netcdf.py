@@ -62,7 +62,7 @@ import numpy as np
 
 from .. import __version__
 
-__all__ = ["NetCDFWriter", "NetCDFWriterND", "SCHEMA", "schema_nd", "read_snapshots"]
+__all__ = ["NetCDFWriter", "NetCDFWriterND", "SCHEMA", "schema_nd", "read_snapshots", "finished_snapshots"]
 
 SCHEMA = {
     # name: (dims, units, long_name)
@@ -400,6 +400,19 @@ class NetCDFWriterND(NetCDFWriter):
             for k, a in enumerate(self.axes):
                 row[f"tracer_{a}"] = tr[:, k] + (fl if a == "z" else 0.0)
         return row
+
+
+def finished_snapshots(path):
+    """The snapshots of an output whose run finished (status "ok"), as :func:`read_snapshots`'s
+    ``data``; None when ``path`` does not exist, cannot be read or did not finish (what
+    ``--resume`` on a finished output checks, for every kind of run)."""
+    if not os.path.exists(path):
+        return None
+    try:
+        data, attrs = read_snapshots(path)
+    except Exception:  # noqa: BLE001 - not a readable output: not a finished one
+        return None
+    return data | {"attrs": attrs} if attrs.get("status") == "ok" else None
 
 
 def read_snapshots(path):

@@ -35,7 +35,7 @@ from ..numerics.solver import SimulationError
 from ..physics.column import initial_density
 from .checkpoint import Checkpoint, checkpoint_path, read_checkpoint, write_checkpoint
 from .config import Config, ConfigError
-from .netcdf import NetCDFWriter, read_snapshots
+from .netcdf import NetCDFWriter, finished_snapshots
 from .paths import check_output_file
 
 __all__ = ["run_config", "RunOutcome", "column_simulation"]
@@ -203,13 +203,8 @@ def _complete_output(out, diameter, log) -> RunOutcome | None:
     """The outcome of ``--resume`` on an output whose run finished (status "ok"; its checkpoint
     was removed): nothing to do, the file as it is.  None when ``out`` is not such a file.
     The same for every column run (the seed's kernel and both packing formulations)."""
-    if not os.path.exists(out):
-        return None
-    try:
-        data, attrs = read_snapshots(out)
-    except Exception:
-        return None
-    if attrs.get("status") != "ok":
+    data = finished_snapshots(out)
+    if data is None:
         return None
     top = data["top"] / diameter
     i = int(np.nanargmax(top)) if np.any(np.isfinite(top)) else 0
