@@ -195,7 +195,7 @@ SUGGESTS = {"unknown_table": "did you mean [tap]", "misspelt_key": "did you mean
             "scheme_unknown": "seed", "cfl_above_kutta3_filter": "2.3388", "cfl_above_euler_filter": "0.7071",
             "cfl_above_kutta3_nofilter": "1.7321", "ppd_one": "2 cells",
             "n_spheres_float": "float", "n_spheres_string": "string", "n_spheres_bool": "boolean",
-            "kernel_dissipation_one": "[0, 1)", "restitution_zero": "(0, 1]"}
+            "kernel_dissipation_one": "[0, 1)", "restitution_zero": "[0.01, 1]"}
 
 
 def _write(tmp_path, name, cfg):

@@ -142,3 +142,8 @@ def test_resume_of_a_finished_layer_run_does_nothing(tmp_path, capsys):
     assert main(["run", str(cfg), "--out", str(tmp_path / "other.nc"), "--resume"]) == 2
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and "no checkpoint" in lines[0]
+    cfg.write_text(cfg.read_text().replace("t_end = 0.03", "t_end = 0.05"))
+    assert main(["run", str(cfg), "--out", str(out), "--resume"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "another config" in lines[0]
+    assert out.read_bytes() == before

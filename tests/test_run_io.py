@@ -504,3 +504,8 @@ def test_resume_of_a_finished_run_does_nothing(tmp_path, capsys, kind):
     assert main(["run", str(cfg_path), "--out", str(tmp_path / "other.nc"), "--resume"]) == 2
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and "no checkpoint" in lines[0]
+    # another config's finished file is not "complete already" for this one
+    assert main(["run", str(cfg_path), "--out", str(out), "--resume", "--set", "run.t_end=0.2"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "another config" in lines[0] and "run.t_end" in lines[0]
+    assert out.read_bytes() == before

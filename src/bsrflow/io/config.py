@@ -124,25 +124,23 @@ _CAL = ("406 kg: the calibration that `make demo` measured on the single tap a/d
 
 FIELDS: tuple[_Field, ...] = (
     # [column] -- the spheres and the continuum constants
-    _Field("column", "n_spheres", "int", 20, "number of spheres stacked on the floor", "", 1, 100000),
+    _Field("column", "n_spheres", "int", 20, "number of spheres stacked on the floor", "", 2, 100000),
     _Field("column", "diameter", "float", 0.022,
            "sphere diameter d (2.2 cm reproduces the seed's DEM heights; the seed never states d)",
-           "m", 0, 10, lo_open=True),
-    _Field("column", "density", "float", 1200.0, "density of the sphere material", "kg/m3", 0, 1e5,
-           lo_open=True),
+           "m", 1e-6, 10),
+    _Field("column", "density", "float", 1200.0, "density of the sphere material", "kg/m3", 1, 1e5),
     _Field("column", "stiffness", "float", 1.366e7, "contact stiffness K (DEM loading; the kernel's K)",
-           "N/m", 0, 1e12, lo_open=True),
-    _Field("column", "restitution", "float", 0.9, "coefficient of restitution e of the DEM contacts",
-           "", 0, 1, lo_open=True),
+           "N/m", 1e-3, 1e12),
+    _Field("column", "restitution", "float", 0.9, "coefficient of restitution e of the DEM contacts "
+           "(and of the packing law)", "", 0.01, 1),
     _Field("column", "m0", "float", 406.0,
            "continuum characteristic mass m0 of the kernel, lambda = K/(m m0); default " + _CAL,
-           "kg", 0, 1e12, lo_open=True),
+           "kg", 1e-12, 1e12),
     _Field("column", "kernel_dissipation", "float", 0.9,
            "dissipation epsilon of the continuum kernel (not the restitution: e^2 = (1-eps)/(1+eps)); "
            "default 0.9, calibrated together with m0 by `make demo` on a/d = 0.75", "", 0, 1,
            hi_open=True),
-    _Field("column", "gravity", "float", 9.81, "gravitational acceleration g", "m/s2", 0, 1e4,
-           lo_open=True),
+    _Field("column", "gravity", "float", 9.81, "gravitational acceleration g", "m/s2", 1e-3, 1e4),
     # [model] -- the interaction
     _Field("model", "kernel", "str", "seed", "interaction: \"seed\" (the seed's kernel (4.6) with m0 "
            "and kernel_dissipation, solved by numerics.scheme) or \"packing\" (the contact law's "
@@ -161,8 +159,7 @@ FIELDS: tuple[_Field, ...] = (
     # [tap] -- half-sine displacement pulses of the floor
     _Field("tap", "a_over_d", "float", 0.75, "tap amplitude a in units of the sphere diameter "
            "(0: no tap)", "", 0, 20),
-    _Field("tap", "frequency", "float", 10.0, "tap frequency f; one tap lasts 1/(2f)", "Hz", 0, 1e4,
-           lo_open=True),
+    _Field("tap", "frequency", "float", 10.0, "tap frequency f; one tap lasts 1/(2f)", "Hz", 1e-3, 1e4),
     _Field("tap", "start", "float", 0.4, "time of the first tap (the column settles before it)", "s",
            0, 1e5),
     _Field("tap", "n_taps", "int", 1, "number of taps (0: no tap)", "", 0, 1_000_000),
@@ -171,9 +168,9 @@ FIELDS: tuple[_Field, ...] = (
     _Field("tap", "impulses", "bool", True, "apply the velocity jumps of the displacement pulse "
            "(true, correct) or only its smooth part a w^2 sin wt as printed in the seed (false)"),
     # [run]
-    _Field("run", "t_end", "float", 1.3, "final time", "s", 0, 1e5, lo_open=True),
+    _Field("run", "t_end", "float", 1.3, "final time", "s", 1e-9, 1e5),
     _Field("run", "save_every", "float", 0.005, "time between snapshots written to the netCDF file "
-           "(at most t_end)", "s", 0, None, lo_open=True),
+           "(at most t_end)", "s", 1e-9, None),
     _Field("run", "checkpoint_every", "float", None, "simulated time between checkpoints "
            "<out>.ckpt that `bsrflow run --resume` continues from (default, when absent: every "
            f"{_AUTO_CHECKPOINT:g} s rounded up to a whole number of snapshots, at most "

@@ -174,7 +174,7 @@ def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=
     from ..physics.packing_bed import PackingBed
     from .paths import check_output_file
     if resume and not os.path.exists(checkpoint_path(check_output_file(out, "--out"))):
-        done = _complete_layer(out, log or (lambda msg: None))
+        done = _complete_layer(out, cfg, log or (lambda msg: None))
         if done is not None:
             return done
     if isinstance(cfg.setup, PackingBed):
@@ -311,13 +311,16 @@ def _run_files(cfg: LayerConfig, out):
     return save_times, _checkpoint_times(save_times, cfg.checkpoint_every), checkpoint_path(out), vtk_stem
 
 
-def _complete_layer(out, log) -> LayerOutcome | None:
+def _complete_layer(out, cfg: LayerConfig, log) -> LayerOutcome | None:
     """The outcome of ``--resume`` on a layer output whose run finished (status "ok"; its
-    checkpoint was removed): nothing to do.  None when ``out`` is not such a file."""
+    checkpoint was removed) by this config: nothing to do.  None when ``out`` is not such a file;
+    refused (one line) when another config wrote it."""
     from .netcdf import finished_snapshots
     data = finished_snapshots(out)
     if data is None:
         return None
+    if str(data["attrs"].get("config", "")) != cfg.text:
+        raise ConfigError("--resume", f"{out} was finished by another config; run without --resume to start over")
     log(f"{out} is complete already (status ok); nothing to resume")
     return LayerOutcome(os.fspath(out), "complete already", int(data["time"].size), float(data["time"][-1]),
                         int(data["attrs"].get("steps", 0)), 0.0, None, None)

@@ -120,7 +120,7 @@ def run_config(config: Config, out, *, resume: bool = False, progress=None, log=
     if os.path.isdir(ckpt_file):
         raise ConfigError("--out", f"the checkpoint file {ckpt_file} of this output is a directory")
     if resume and not os.path.exists(ckpt_file):
-        done = _complete_output(out, config.column_setup().diameter, log)
+        done = _complete_output(out, config, log)
         if done is not None:
             return done
         raise ConfigError("--resume", f"no checkpoint {ckpt_file} to resume from (checkpoints are "
@@ -199,14 +199,22 @@ def run_config(config: Config, out, *, resume: bool = False, progress=None, log=
                       rejected_steps=rejected, adaptive=sim.scheme.rtol is not None)
 
 
-def _complete_output(out, diameter, log) -> RunOutcome | None:
+def _complete_output(out, config: Config, log) -> RunOutcome | None:
     """The outcome of ``--resume`` on an output whose run finished (status "ok"; its checkpoint
-    was removed): nothing to do, the file as it is.  None when ``out`` is not such a file.
-    The same for every column run (the seed's kernel and both packing formulations)."""
+    was removed) by this config: nothing to do, the file as it is.  None when ``out`` is not
+    such a file; refused (one line) when another config wrote it.  The same for every column run
+    (the seed's kernel and both packing formulations)."""
     data = finished_snapshots(out)
     if data is None:
         return None
-    top = data["top"] / diameter
+    try:
+        diff = _config_difference(config, Config.from_dict(tomllib.loads(str(data["attrs"].get("config", "")))))
+    except (ValueError, tomllib.TOMLDecodeError):
+        diff = "its config, which cannot be read"
+    if diff:
+        raise ConfigError("--resume", f"{out} was finished by another config (it differs in {diff}); run "
+                          "without --resume to start over")
+    top = data["top"] / config.column_setup().diameter
     i = int(np.nanargmax(top)) if np.any(np.isfinite(top)) else 0
     log(f"{out} is complete already (status ok); nothing to resume")
     return RunOutcome(out, "complete already", int(data["time"].size), float(data["time"][-1]), 0, 0.0,

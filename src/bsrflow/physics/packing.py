@@ -115,7 +115,8 @@ def stiffness_factor_for_mach(impact, true_wave_speed, mach) -> float:
     since c ∝ √φ (docs/model.md, "Stiffness")."""
     if not (math.isfinite(mach) and 0.0 < mach <= 1.0):
         raise ValueError(f"mach = {mach!r} is outside the valid range (0, 1]")
-    return float(min(1.0, (impact / (mach * true_wave_speed)) ** 2))
+    ratio = impact / (mach * true_wave_speed)          # >= 1: the true stiffness is needed (no overflow)
+    return 1.0 if not ratio < 1.0 else float(ratio * ratio)
 
 
 def packing_force_numpy(delta, dmax, k1, k2):
