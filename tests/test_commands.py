@@ -201,3 +201,16 @@ def test_a_closed_standard_output_ends_quietly_with_141(monkeypatch, capsys):
     assert cli.main(["talk"]) == 141
     captured = capsys.readouterr()
     assert captured.err == "" and captured.out == "first line\n"
+
+
+@pytest.mark.parametrize("argv", [["--foo"], ["run"], ["compare-bed", "--cells", "abc"],
+                                  ["compare-dump", "x.dump", "--kernel", "foo"], ["compare", "--ppd", "2.5"]])
+def test_argument_errors_are_one_line_exit_2(argv, capsys):
+    """The parser's own errors (unknown option, missing argument, wrong type or choice) are one
+    line on stderr naming the argument, exit 2, as every other bad input."""
+    from bsrflow.cli import main
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and ": error: " in err[0]

@@ -118,11 +118,23 @@ def test_compare_bed_command_writes_the_schema(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("argv, text", [(["--gammas", "3.3"], "--gammas 3.3"), (["--cells", "2"], "--cells 2"),
-                                        (["--reference", "/nonexistent"], "--reference")])
-def test_compare_bed_bad_input_exits_2(argv, text, capsys):
-    assert main(["compare-bed", "--no-extra"] + argv) == 2
+                                        (["--cells", "5000"], "--cells 5000"), (["--gammas", "3", "3"], "twice"),
+                                        (["--reference", "/nonexistent"], "--reference"),
+                                        (["--reference", "EMPTY_PARAMS"], "--reference")])
+def test_compare_bed_bad_input_exits_2(argv, text, capsys, tmp_path):
+    """Refused in one line before any run, and the --figures folder is not created."""
+    if "EMPTY_PARAMS" in argv:                  # the csv and results/ there, params.json without its keys
+        import shutil
+        from bsrflow.analysis.compare_bed import REFERENCE
+        shutil.copy(REFERENCE / "flight_vs_gamma.csv", tmp_path / "flight_vs_gamma.csv")
+        (tmp_path / "params.json").write_text("{}")
+        (tmp_path / "results").mkdir()
+        argv = ["--reference", str(tmp_path)]
+    figs = tmp_path / "figs"
+    assert main(["compare-bed", "--no-extra", "--figures", str(figs)] + argv) == 2
     err = capsys.readouterr().err
     assert text in err and len(err.strip().splitlines()) == 1
+    assert not figs.exists()
 
 
 def test_flight_definition_is_the_reference_scripts():

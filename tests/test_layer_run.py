@@ -55,6 +55,14 @@ def test_layer_config_runs_into_netcdf_and_vtk(tmp_path, run_layer_file):
     ("[layer]\nkind = 'packing_bed'\ndomain_height = 0.01\n", "layer.domain_height"),
     ("[layer]\nkind = 'packing_bed'\n[tracers]\npositions = [[0.01, 0.01, 0.5]]\n", "tracers.positions"),
     ("[layer]\nkind = 'packing_bed'\n[tracers]\npositions = [[0.01, 0.01]]\n", "tracers.positions"),
+    # types and sizes (an audit found tracebacks here)
+    ("[layer]\nkind = 'packing_bed'\ndim = 2.0\n", "layer.dim"),
+    ("[layer]\nkind = 'packing_bed'\ngamma = true\n", "layer.gamma"),
+    ("[layer]\nkind = 'packing_bed'\nrestitution = 'x'\n", "layer.restitution"),
+    ("[layer]\nkind = 'packing_bed'\ncells_per_diameter = inf\n", "layer.cells_per_diameter"),
+    ("[layer]\nkind = 'packing_bed'\ncells_per_diameter = 100000\n", "layer"),
+    ("layer = 5\n", "layer"),
+    ("tracers = 5\n[layer]\n", "tracers"),
 ])
 def test_bad_layer_configs_exit_2_with_one_line(text, field, tmp_path, capsys):
     cfg = tmp_path / "bad.toml"

@@ -30,8 +30,16 @@ COMMAND_MODULES = [
 ]
 
 
+class _OneLineErrors(argparse.ArgumentParser):
+    """argparse with the package's error form: one line on stderr, ``prog: error: message``,
+    exit code 2 (no usage block; ``--help`` gives it)."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {' '.join(str(message).split())}\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _OneLineErrors(
         prog="bsrflow",
         description="Granular flows with the BSR integro-PDE model (Blackmore-Samulyak-Rosato).")
     parser.add_argument("--version", action="version", version=f"bsrflow {__version__}")

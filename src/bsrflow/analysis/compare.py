@@ -238,7 +238,7 @@ def _packing_main(args) -> int:
     from .compare_packing import (PACKING_CASES, PACKING_MODELS, compare_packing, format_packing_table, model_label,
                                   parse_models)
     requested = PACKING_MODELS if args.models is None else parse_models(args.models)
-    forms = tuple((args.formulation or "eulerian,lagrangian").split(","))
+    forms = tuple(("eulerian,lagrangian" if args.formulation is None else args.formulation).split(","))
     bad = [f for f in forms if f not in ("eulerian", "lagrangian")]
     if bad:
         raise ValueError(f"--formulation = {bad[0]!r} is not one of eulerian, lagrangian")
@@ -247,7 +247,7 @@ def _packing_main(args) -> int:
         raise ValueError(f"--formulation = {args.formulation!r} leaves none of the models "
                          f"{', '.join(model_label(*mdl) for mdl in requested)}")
     cases = PACKING_CASES
-    if args.cases:
+    if args.cases is not None:
         names = args.cases.split(",")
         known = {c["name"] for c in PACKING_CASES}
         for n in names:
@@ -276,9 +276,9 @@ def _packing_main(args) -> int:
             base.with_(formulation=form, range_over_d=rng)
         except ValueError as exc:
             raise ValueError(f"--models: {model_label(form, rng)}: {exc}") from None
-    if args.json:
+    if args.json is not None:
         check_output_file(args.json, "--json")
-    if args.figures:
+    if args.figures is not None:
         check_output_dir(args.figures, "--figures", create=True)
     print(f"bsrflow compare --kernel packing: {len(cases)} cases, models {', '.join(model_label(*mdl) for mdl in models)}, "
           f"{base.points_per_diameter} points per diameter, stiffness factor "
@@ -306,6 +306,8 @@ def _main(args) -> int:
     if args.ppd is not None:
         kw["points_per_diameter"] = args.ppd
     base = ColumnSetup(**kw)
+    from ..numerics.solver import Scheme
+    Scheme.preset(args.scheme)                     # an unknown preset is refused before the DEM runs
     if args.command == "demo":
         check_output_dir(args.out, "--out", create=True)
         json_path = check_output_file(os.path.join(args.out, "compare.json"), "--out")

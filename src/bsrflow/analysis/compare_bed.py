@@ -297,20 +297,32 @@ def add_parser(sub):
 def _main(args) -> int:
     from ..io.paths import check_output_dir, check_output_file
 
-    if args.json:
+    if args.json is not None:
         check_output_file(args.json, "--json")
-    if args.figures:
-        check_output_dir(args.figures, "--figures", create=True)
     ref = Path(args.reference)
-    if not (ref / "flight_vs_gamma.csv").exists():
-        raise ValueError(f"--reference {args.reference}: no flight_vs_gamma.csv there (the LIGGGHTS data folder)")
-    if not (4 <= args.cells <= 100000):
-        raise ValueError(f"--cells {args.cells} is outside the valid range [4, 100000]")
+    need = ["flight_vs_gamma.csv", "params.json", "results"] + ([] if args.no_extra else ["flight_vs_gamma_e0.5.csv"])
+    missing = [n for n in need if not (ref / n).exists()]
+    if missing:
+        raise ValueError(f"--reference {args.reference}: no {missing[0]} there (the LIGGGHTS data folder holds "
+                         f"{', '.join(need)})")
+    try:
+        known = [float(g) for g in np.atleast_1d(_read_csv(ref / "flight_vs_gamma.csv")["gamma"])]
+        params = json.loads((ref / "params.json").read_text())
+        [params[k] for k in ("d_m", "rho_s_kg_m3", "K_N_m", "e", "g_m_s2", "f_Hz")]
+        params["settled_N2000_L13d"]["lx_m"]
+    except (ValueError, KeyError, TypeError, OSError) as exc:
+        raise ValueError(f"--reference {args.reference}: not the LIGGGHTS data folder's files "
+                         f"({type(exc).__name__}: {' '.join(str(exc).split())})") from None
+    if not (4 <= args.cells <= 1000):
+        raise ValueError(f"--cells {args.cells} is outside the valid range [4, 1000]")
     if args.gammas:
-        known = [float(g) for g in _read_csv(ref / "flight_vs_gamma.csv")["gamma"]]
+        if len(set(args.gammas)) < len(args.gammas):
+            raise ValueError(f"--gammas: a value is given twice ({' '.join(f'{g:g}' for g in args.gammas)})")
         for g in args.gammas:
             if not any(abs(g - k) < 1e-9 for k in known):
                 raise ValueError(f"--gammas {g:g} is not one of the LIGGGHTS runs' Γ: {', '.join(f'{k:g}' for k in known)}")
+    if args.figures is not None:                     # created only once everything else is checked
+        check_output_dir(args.figures, "--figures", create=True)
     t0 = time.perf_counter()
     out = compare_bed(args.gammas, args.cells, ref, args.figures, include_extra=not args.no_extra)
     print(format_table(out))

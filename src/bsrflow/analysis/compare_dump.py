@@ -255,9 +255,9 @@ def _main(args) -> int:
     from ..io.paths import check_output_dir, check_output_file
     from ..tools.setup_source import SetupSource, parse_value
 
-    if args.json:
+    if args.json is not None:
         check_output_file(args.json, "--json")
-    if args.figures:
+    if args.figures is not None:
         check_output_dir(args.figures, "--figures")
     if args.dt is not None and not (math.isfinite(args.dt) and args.dt > 0):
         raise ValueError(f"--dt {args.dt!r} is outside the valid range (0, inf) s")

@@ -49,7 +49,10 @@ def parse_models(text: str):
     from ..physics.packing import MAX_RANGE_OVER_D
     out = []
     for item in text.split(","):
-        form, _, rng = item.strip().partition(":")
+        form, colon, rng = item.strip().partition(":")
+        if colon and not rng.strip():
+            raise ValueError(f"--models: {item!r}: the range after ':' is missing (a number in "
+                             f"[0, {MAX_RANGE_OVER_D:g}], or leave out ':' for the formulation's default)")
         if form not in ("eulerian", "lagrangian"):
             raise ValueError(f"--models: {item!r}: the formulation is not one of eulerian, lagrangian "
                              "(format FORMULATION:R_OVER_D, comma-separated)")

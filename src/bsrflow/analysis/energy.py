@@ -241,9 +241,9 @@ def add_parser(sub):
 
 
 def _main(args) -> int:
-    if args.json:
+    if args.json is not None:
         check_output_file(args.json, "--json")
-    if args.figures:
+    if args.figures is not None:
         check_output_dir(args.figures, "--figures")
     cal = read_calibration(args.calibration) if args.calibration else None
     out = energy_study(cal, args.figures)

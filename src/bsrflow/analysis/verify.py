@@ -297,7 +297,7 @@ def add_parser(sub):
 
 def _main(args) -> int:
     from ..io.paths import check_output_file
-    if args.json:
+    if args.json is not None:
         check_output_file(args.json, "--json")
     flat = run_cases(args.case)
     print(format_table(flat))

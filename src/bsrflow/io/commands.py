@@ -117,7 +117,7 @@ def _run_layer(args) -> int:
         raise ConfigError("--set" if args.set else "--scheme", "is not supported for layer configs; "
                           "edit the [layer] table instead")
     cfg = load_layer_config(args.config)
-    out = args.out or os.path.splitext(args.config)[0] + ".nc"
+    out = args.out if args.out is not None else os.path.splitext(args.config)[0] + ".nc"
     if os.path.abspath(out) == os.path.abspath(args.config):
         raise ConfigError("--out", f"{out} is the config file itself; give another file name (e.g. .nc)")
     progress, close = _progress_bar(cfg.setup.t_end, not args.quiet and sys.stderr.isatty())
@@ -148,7 +148,7 @@ def _run(args) -> int:
         overrides["numerics.scheme"] = args.scheme
     if overrides:
         config = config.with_overrides(overrides)
-    out = args.out or os.path.splitext(args.config)[0] + ".nc"
+    out = args.out if args.out is not None else os.path.splitext(args.config)[0] + ".nc"
     if os.path.abspath(out) == os.path.abspath(args.config):
         raise ConfigError("--out", f"{out} is the config file itself; give another file name (e.g. .nc)")
     quiet = bool(args.quiet)

@@ -80,6 +80,8 @@ def load_layer_config(path) -> LayerConfig:
     for table in data:
         if table not in ("layer", "output", "tracers"):
             raise ConfigError(str(table), "unknown table in a layer config; valid: [layer], [output], [tracers]")
+        if not isinstance(data[table], dict):
+            raise ConfigError(str(table), f"{data[table]!r} must be a table ([{table}] with its keys)")
     layer = dict(data["layer"])
     kind = layer.pop("kind", "tapped_layer")
     if kind not in KINDS:
@@ -90,6 +92,7 @@ def load_layer_config(path) -> LayerConfig:
     for key, value in layer.items():
         if key not in names:
             raise ConfigError(f"layer.{key}", f"unknown key for kind = {kind!r}; valid: {', '.join(sorted(names))}")
+        _check_type(f"layer.{key}", value, str(names[key].type))
         kw[key] = value
     try:
         setup = cls(**kw)
@@ -97,6 +100,13 @@ def load_layer_config(path) -> LayerConfig:
         msg = str(exc).splitlines()[0]
         field = next((k for k in kw if msg.startswith(k)), None)
         raise ConfigError(f"layer.{field}" if field else "layer", msg) from None
+    try:
+        cells = int(np.prod(setup.grid().shape))
+    except (ValueError, TypeError, OverflowError) as exc:
+        raise ConfigError("layer", str(exc).splitlines()[0]) from None
+    if cells > MAX_LAYER_CELLS:
+        raise ConfigError("layer", f"the grid would have {cells:.3g} cells; at most {MAX_LAYER_CELLS:.0e} (reduce the "
+                          "box, the heights or the cells per diameter)")
     out = dict(data.get("output", {}))
     for key, value in out.items():
         if key not in _OUTPUT_KEYS:
@@ -110,6 +120,28 @@ def load_layer_config(path) -> LayerConfig:
             raise ConfigError("output.checkpoint_every", f"{ck!r} is outside the valid range [0, inf) s")
     return LayerConfig(setup, vtk, None if ck is None else float(ck), raw.decode("utf-8"),
                        _tracer_positions(data.get("tracers"), setup))
+
+
+MAX_LAYER_CELLS = 5e7
+"""The most cells a layer config may ask for (a 368³ grid; the state of a 3-D packing bed then
+takes about 2 GB per copy)."""
+
+
+def _check_type(name, value, annotation):
+    """One line naming ``name`` unless ``value`` has the field's TOML type (``annotation`` as the
+    dataclass gives it: "int", "float", "float | None", "bool", "str")."""
+    if annotation.startswith("int"):
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(name, f"{value!r} must be an integer")
+    elif annotation.startswith("float"):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ConfigError(name, f"{value!r} must be a finite number")
+    elif annotation.startswith("bool"):
+        if not isinstance(value, bool):
+            raise ConfigError(name, f"{value!r} must be true or false")
+    elif annotation.startswith("str"):
+        if not isinstance(value, str):
+            raise ConfigError(name, f"{value!r} must be a string")
 
 
 def _tracer_positions(table, setup):

@@ -218,7 +218,10 @@ class LagrangianPacking(_Base):
                                                law.k2, self._fn, self._params, self.gravity, self.counters)
         self.steps = int(self.counters[0])
         if self.counters[1]:
-            raise PackingError(f"material points crossed (a bond length reached 0) at t = {t:.6g} s", t)
+            gaps = np.diff(np.concatenate([[-self.x[0]], self.x]))     # the first to the floor's mirror image
+            i = int(np.argmin(gaps))
+            raise PackingError(f"material points crossed (a bond length reached 0) at t = {t:.6g} s, near x = "
+                               f"{self.x[i]:.4g} m (point {i} of {self.x.size}, floor frame)", t, float(self.x[i]))
         if self.x[-1] > self.grid.upper - self.law.diameter:
             raise PackingError(f"material reached the top of the domain at t = {t:.6g} s, "
                                f"x = {self.x[-1]:.4g} m", t, float(self.x[-1]))

@@ -134,9 +134,9 @@ class ColumnSetup:
             raise ValueError(f"tap_start = {self.tap_start!r} is outside the valid range [0, inf) s")
         if int(self.n_taps) != self.n_taps or self.n_taps < 0:
             raise ValueError(f"n_taps = {self.n_taps!r} is outside the valid range: integers >= 0")
-        if int(self.points_per_diameter) != self.points_per_diameter or self.points_per_diameter < 2:
+        if (int(self.points_per_diameter) != self.points_per_diameter or not 2 <= self.points_per_diameter <= 1000):
             raise ValueError(f"points_per_diameter = {self.points_per_diameter!r} is outside the valid "
-                             "range: integers >= 2 (the kernel radius d must span at least 2 cells)")
+                             "range: integers in [2, 1000] (the kernel radius d must span at least 2 cells)")
         if self.n_taps > 1 and self.tap_period < 0.5 / self.frequency:
             raise ValueError(f"tap_period = {self.tap_period!r} s is outside the valid range "
                              f"[{0.5 / self.frequency:g}, inf) s (a tap lasts 1/(2f))")
@@ -179,8 +179,8 @@ class ColumnSetup:
                 raise ValueError("cfl is an option of the packing kernel only (the seed kernel's CFL number "
                                  "is the scheme's)")
             lim = 0.5 if self.formulation == "eulerian" else 0.9
-            if not (np.isfinite(self.cfl) and 0.0 < self.cfl <= lim):
-                raise ValueError(f"cfl = {self.cfl!r} is outside the valid range (0, {lim}] for the "
+            if not (np.isfinite(self.cfl) and 1e-3 <= self.cfl <= lim):
+                raise ValueError(f"cfl = {self.cfl!r} is outside the valid range [0.001, {lim}] for the "
                                  f"{self.formulation} packing formulation")
         need = self.energy_bound_height()
         if self.domain_height is not None and self.domain_height < need:
