@@ -214,3 +214,32 @@ def test_argument_errors_are_one_line_exit_2(argv, capsys):
     assert exc.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and ": error: " in err[0]
+
+
+def test_packing_compare_that_stops_names_the_run_and_keeps_the_finished_cases(tmp_path, capsys, monkeypatch):
+    """A continuum run that stops in `compare --kernel packing`: exit 3, the message names the case
+    and the model, and --json keeps the cases finished before it with the message."""
+    import json
+
+    import bsrflow.analysis.compare_packing as cp
+    from bsrflow.cli import main
+    from bsrflow.numerics.solver import SimulationError
+
+    real = cp.run_bsr_column
+    calls = []
+
+    def stop_second(setup, *a, **k):
+        calls.append(setup)
+        if len(calls) == 2:
+            raise SimulationError("monitor stop at t = 0.5 s", None, 0.5, 0.0, "stopped")
+        return real(setup.with_(t_end=0.45), *a, **k)
+    monkeypatch.setattr(cp, "run_bsr_column", stop_second)
+    js = tmp_path / "c.json"
+    argv = ["compare", "--kernel", "packing", "--cases", "d22mm_a0.5,d22mm_a0.75", "--models", "lagrangian:0",
+            "--json", str(js)]
+    assert main(argv) == 3
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "case d22mm_a0.75, lagrangian local: monitor stop" in err[0]
+    kept = json.loads(js.read_text())
+    assert [c["name"] for c in kept["cases"]] == ["d22mm_a0.5"] and "d22mm_a0.75" in kept["stopped"]
+    assert kept["fitted_constants"] == {}

@@ -63,6 +63,8 @@ def test_layer_config_runs_into_netcdf_and_vtk(tmp_path, run_layer_file):
     ("[layer]\nkind = 'packing_bed'\ncells_per_diameter = 100000\n", "layer"),
     ("layer = 5\n", "layer"),
     ("tracers = 5\n[layer]\n", "tracers"),
+    ("[layer]\nkind = 'packing_bed'\nt_end = 0.01\nsave_every = 0.02\n", "layer.save_every"),
+    ("[layer]\nkind = 'packing_bed'\nt_end = 0.01\n[output]\ncheckpoint_every = 5.0\n", "output.checkpoint_every"),
 ])
 def test_bad_layer_configs_exit_2_with_one_line(text, field, tmp_path, capsys):
     cfg = tmp_path / "bad.toml"
@@ -121,7 +123,7 @@ def test_layer_tracers_in_the_vtk_files(tmp_path):
     import meshio
 
     cfgfile = tmp_path / "layer.toml"
-    cfgfile.write_text(CONFIG.replace("t_end = 0.12", "t_end = 0.03")
+    cfgfile.write_text(CONFIG.replace("t_end = 0.12", "t_end = 0.03").replace("checkpoint_every = 0.05", "checkpoint_every = 0.02")
                        + "[tracers]\npositions = [[0.01, 0.004], [0.02, 0.012]]\n")
     out = tmp_path / "layer.nc"
     run_layer_config(load_layer_config(cfgfile), out)
@@ -139,7 +141,8 @@ def test_resume_of_a_finished_layer_run_does_nothing(tmp_path, capsys):
     """`--resume` on a finished layer output leaves it as it is and says so (exit 0), as for a
     column; without the finished file it is refused in one line."""
     cfg = tmp_path / "layer.toml"
-    cfg.write_text(CONFIG.replace("vtk = true", "vtk = false").replace("t_end = 0.12", "t_end = 0.03"))
+    cfg.write_text(CONFIG.replace("vtk = true", "vtk = false").replace("t_end = 0.12", "t_end = 0.03")
+                   .replace("checkpoint_every = 0.05", "checkpoint_every = 0.02"))
     out = tmp_path / "layer.nc"
     assert main(["run", str(cfg), "--out", str(out), "--quiet"]) == 0
     before = out.read_bytes()

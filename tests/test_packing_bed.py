@@ -89,6 +89,7 @@ def test_interrupted_packing_bed_resumes_bit_for_bit(tmp_path):
 def test_reduced_stiffness_is_reported(tmp_path, capsys):
     cfg = tmp_path / "bed.toml"
     cfg.write_text(CONFIG.replace("t_end = 0.12", "t_end = 0.01").replace("vtk = true", "vtk = false")
+                   .replace("checkpoint_every = 0.05", "checkpoint_every = 0.01")
                    .replace("[output]", "stiffness_factor = 0.25\n[output]"))
     assert main(["run", str(cfg), "--out", str(tmp_path / "bed.nc")]) == 0
     out = capsys.readouterr().out

@@ -283,7 +283,14 @@ def _packing_main(args) -> int:
     print(f"bsrflow compare --kernel packing: {len(cases)} cases, models {', '.join(model_label(*mdl) for mdl in models)}, "
           f"{base.points_per_diameter} points per diameter, stiffness factor "
           f"{'auto (impact Mach number 0.01)' if auto else format(base.stiffness_factor, 'g')}")
-    result = compare_packing(base, cases=cases, models=models, figures=args.figures, auto_stiffness=auto)
+    try:
+        result = compare_packing(base, cases=cases, models=models, figures=args.figures, auto_stiffness=auto)
+    except SimulationError as exc:
+        if args.json is not None and getattr(exc, "partial", None) is not None:
+            with open(args.json, "w") as fh:             # the cases finished before the stop are kept
+                json.dump(exc.partial, fh, indent=2)
+            print(f"wrote {args.json} (the cases before the stop)")
+        raise
     print(format_packing_table(result))
     if args.json:
         with open(args.json, "w") as fh:

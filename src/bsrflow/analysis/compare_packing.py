@@ -31,6 +31,7 @@ import time
 
 import numpy as np
 
+from ..numerics.solver import SimulationError
 from ..physics.column import ColumnSetup, model_label, run_bsr_column
 
 __all__ = ["PACKING_CASES", "PACKING_MODELS", "case_setup", "compare_packing", "coarse_grained_density",
@@ -177,8 +178,14 @@ def compare_packing(base: ColumnSetup | None = None, cases=None, models=PACKING_
         dem_m = _metrics(dem[0], dem[1][:, -1], dem[1].mean(axis=1), s0)
         runs = {}
         for form, rng in models:
-            run, entry = _run_against_dem(c["name"], s0.with_(formulation=form, range_over_d=rng), dem, dem_m,
-                                          dem_wall)
+            try:
+                run, entry = _run_against_dem(c["name"], s0.with_(formulation=form, range_over_d=rng), dem, dem_m,
+                                              dem_wall)
+            except SimulationError as exc:     # say which run stopped; keep the finished cases for the caller
+                exc.args = (f"case {c['name']}, {model_label(form, rng)}: {exc.args[0] if exc.args else exc}",)
+                exc.partial = {"fitted_constants": {}, "models": [model_label(*mdl) for mdl in models],
+                               "cases": out_cases, "stopped": exc.args[0]}
+                raise
             runs[entry["model"]] = run
             out_cases.append(entry)
             if log:

@@ -89,3 +89,8 @@ def read_checkpoint(path) -> Checkpoint:
                               fields={k[6:]: z[k].copy() for k in z.files if k.startswith("field_")} or None)
     except (OSError, KeyError, EOFError, zipfile.BadZipFile) as exc:
         raise ValueError(f"{path}: not a readable bsrflow checkpoint ({type(exc).__name__}: {exc})") from None
+    except ValueError as exc:
+        if str(exc).startswith(path):               # the format check above
+            raise
+        # numpy's own refusal of another kind of file (e.g. "pickled (object) data"): not ours
+        raise ValueError(f"{path}: not a bsrflow checkpoint (not the .npz file `bsrflow run` writes)") from None

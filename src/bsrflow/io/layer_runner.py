@@ -114,10 +114,15 @@ def load_layer_config(path) -> LayerConfig:
     vtk = out.get("vtk", False)
     if not isinstance(vtk, bool):
         raise ConfigError("output.vtk", f"{vtk!r} must be true or false")
+    t_end = float(setup.t_end)
+    if float(setup.save_every) > t_end:
+        raise ConfigError("layer.save_every", f"{setup.save_every!r} is outside the valid range (0, t_end = {t_end:g}] s")
     ck = out.get("checkpoint_every")
     if ck is not None:
-        if isinstance(ck, bool) or not isinstance(ck, (int, float)) or not (math.isfinite(ck) and ck >= 0.0):
-            raise ConfigError("output.checkpoint_every", f"{ck!r} is outside the valid range [0, inf) s")
+        if (isinstance(ck, bool) or not isinstance(ck, (int, float))
+                or not (math.isfinite(ck) and 0.0 <= ck <= t_end)):
+            raise ConfigError("output.checkpoint_every", f"{ck!r} is outside the valid range [0, t_end = {t_end:g}] s "
+                              "(0: no checkpoints)")
     return LayerConfig(setup, vtk, None if ck is None else float(ck), raw.decode("utf-8"),
                        _tracer_positions(data.get("tracers"), setup))
 
