@@ -127,9 +127,10 @@ def load_layer_config(path) -> LayerConfig:
                        _tracer_positions(data.get("tracers"), setup))
 
 
-MAX_LAYER_CELLS = 5e7
-"""The most cells a layer config may ask for (a 368³ grid; the state of a 3-D packing bed then
-takes about 2 GB per copy)."""
+MAX_LAYER_CELLS = 1e7
+"""The most cells a layer config may ask for (a 215³ grid).  A 2-D packing bed of 8e6 cells took
+9.8 GB in an audit's run (about 1.2 kB per cell with the stepper's stage arrays), so 1e7 cells
+stay within a 24-GB machine."""
 
 
 def _check_type(name, value, annotation):
