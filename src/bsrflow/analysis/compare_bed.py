@@ -150,16 +150,27 @@ def _compare_one(setup: BedSetup, ref: Path, tag: str, progress=None):
     return case, res, traj
 
 
+def reference_bed(ref: Path, n_cells=200):
+    """(the Γ of the LIGGGHTS runs, the continuum's bed of those runs) from the reference folder's
+    flight_vs_gamma.csv and params.json.  ValueError (one line) when they are not that folder's."""
+    try:
+        gammas = [float(g) for g in np.atleast_1d(_read_csv(ref / "flight_vs_gamma.csv")["gamma"])]
+        params = json.loads((ref / "params.json").read_text())
+        base = BedSetup(n_spheres=2000, diameter=params["d_m"], density=params["rho_s_kg_m3"],
+                        stiffness=params["K_N_m"], restitution=params["e"], side=params["settled_N2000_L13d"]["lx_m"],
+                        gravity=params["g_m_s2"], frequency=params["f_Hz"],
+                        cycles=params["cycles_startup"] + params["cycles_measured"], n_cells=n_cells)
+    except (ValueError, KeyError, TypeError, OSError) as exc:
+        raise ValueError(f"--reference {ref}: not the LIGGGHTS data folder's files "
+                         f"({type(exc).__name__}: {' '.join(str(exc).split())})") from None
+    return gammas, base
+
+
 def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, progress=None, include_extra=True):
     """Run the comparison (module docstring); returns the JSON-ready dict."""
     ref = Path(reference)
-    table = _read_csv(ref / "flight_vs_gamma.csv")
-    params = json.loads((ref / "params.json").read_text())
-    base = BedSetup(n_spheres=2000, diameter=params["d_m"], density=params["rho_s_kg_m3"], stiffness=params["K_N_m"],
-                    restitution=params["e"], side=params["settled_N2000_L13d"]["lx_m"],
-                    gravity=params["g_m_s2"], frequency=params["f_Hz"],
-                    cycles=params["cycles_startup"] + params["cycles_measured"], n_cells=n_cells)
-    gammas = [float(g) for g in (table["gamma"] if gammas is None else gammas)]
+    known, base = reference_bed(ref, n_cells)
+    gammas = [float(g) for g in (known if gammas is None else gammas)]
     cases, runs = [], {}
     for g in gammas:
         case, res, traj = _compare_one(base.with_(gamma=g), ref, "", progress)
@@ -305,14 +316,7 @@ def _main(args) -> int:
     if missing:
         raise ValueError(f"--reference {args.reference}: no {missing[0]} there (the LIGGGHTS data folder holds "
                          f"{', '.join(need)})")
-    try:
-        known = [float(g) for g in np.atleast_1d(_read_csv(ref / "flight_vs_gamma.csv")["gamma"])]
-        params = json.loads((ref / "params.json").read_text())
-        [params[k] for k in ("d_m", "rho_s_kg_m3", "K_N_m", "e", "g_m_s2", "f_Hz")]
-        params["settled_N2000_L13d"]["lx_m"]
-    except (ValueError, KeyError, TypeError, OSError) as exc:
-        raise ValueError(f"--reference {args.reference}: not the LIGGGHTS data folder's files "
-                         f"({type(exc).__name__}: {' '.join(str(exc).split())})") from None
+    known, _ = reference_bed(ref)
     if not (4 <= args.cells <= 1000):
         raise ValueError(f"--cells {args.cells} is outside the valid range [4, 1000]")
     if args.gammas:

@@ -295,15 +295,15 @@ def _main(args) -> int:
     source = SetupSource.load(args.config)
     source.check_names(overrides)
     setup, scheme = source.setup_and_scheme(overrides)
-    if setup.kernel_name == "packing":
+    if setup.kernel_name == "packing":              # the config refuses the seed's scheme options itself
         from ..tools.setup_source import canonical_name
-        seed_only = ("m0", "kernel_dissipation", "scheme", "stepper", "rtol", "atol")
-        given = [opt for opt, fld, _t, _h in _SETUP_OPTIONS if fld in seed_only and getattr(args, fld) is not None]
+        given = [opt for opt, fld, _t, _h in _SETUP_OPTIONS if fld in ("m0", "kernel_dissipation")
+                 and getattr(args, fld) is not None]
         given += [f"--set {k}" for k in (item.partition("=")[0].strip() for item in args.set)
-                  if canonical_name(k) in seed_only]
+                  if canonical_name(k) in ("m0", "kernel_dissipation")]
         if given:
-            raise ValueError(f"{given[0]} is a parameter of the seed kernel only; the packing continuum has none "
-                             "of m0, eps, scheme, stepper, rtol, atol: leave it out")
+            raise ValueError(f"{given[0]} is a constant of the seed kernel only; the packing continuum has no m0 or "
+                             "eps: leave it out")
     t_rel = dump.t - args.time_offset
     after = (t_rel >= setup.tap_start - 1e-12) & (t_rel <= setup.t_end + 1e-9 * max(1.0, setup.t_end))
     if after.any():
