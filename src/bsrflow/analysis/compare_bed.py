@@ -151,8 +151,8 @@ def _compare_one(setup: BedSetup, ref: Path, tag: str, progress=None):
 
 
 def reference_bed(ref: Path, n_cells=200):
-    """(the Γ of the LIGGGHTS runs, the continuum's bed of those runs) from the reference folder's
-    flight_vs_gamma.csv and params.json.  ValueError (one line) when they are not that folder's."""
+    """(the Γ of the LIGGGHTS runs, params.json as a dict, the continuum's bed of those runs) from
+    the reference folder's flight_vs_gamma.csv and params.json.  ValueError (one line) when they are not that folder's."""
     try:
         gammas = [float(g) for g in np.atleast_1d(_read_csv(ref / "flight_vs_gamma.csv")["gamma"])]
         params = json.loads((ref / "params.json").read_text())
@@ -163,13 +163,13 @@ def reference_bed(ref: Path, n_cells=200):
     except (ValueError, KeyError, TypeError, OSError) as exc:
         raise ValueError(f"--reference {ref}: not the LIGGGHTS data folder's files "
                          f"({type(exc).__name__}: {' '.join(str(exc).split())})") from None
-    return gammas, base
+    return gammas, params, base
 
 
 def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, progress=None, include_extra=True):
     """Run the comparison (module docstring); returns the JSON-ready dict."""
     ref = Path(reference)
-    known, base = reference_bed(ref, n_cells)
+    known, params, base = reference_bed(ref, n_cells)
     gammas = [float(g) for g in (known if gammas is None else gammas)]
     cases, runs = [], {}
     for g in gammas:
@@ -316,7 +316,7 @@ def _main(args) -> int:
     if missing:
         raise ValueError(f"--reference {args.reference}: no {missing[0]} there (the LIGGGHTS data folder holds "
                          f"{', '.join(need)})")
-    known, _ = reference_bed(ref)
+    known, _, _ = reference_bed(ref)
     if not (4 <= args.cells <= 1000):
         raise ValueError(f"--cells {args.cells} is outside the valid range [4, 1000]")
     if args.gammas:
