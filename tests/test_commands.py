@@ -243,3 +243,17 @@ def test_packing_compare_that_stops_names_the_run_and_keeps_the_finished_cases(t
     kept = json.loads(js.read_text())
     assert [c["name"] for c in kept["cases"]] == ["d22mm_a0.5"] and "d22mm_a0.75" in kept["stopped"]
     assert kept["fitted_constants"] == {}
+
+
+@pytest.mark.parametrize("argv, option", [(["compare", "--ppd", "0"], "--ppd"),
+                                          (["compare", "--kernel", "packing", "--ppd", "1"], "--ppd"),
+                                          (["compare", "--diameter", "-1"], "--diameter")])
+def test_compare_names_the_option_of_a_bad_value(argv, option, capsys, tmp_path):
+    """A value of `compare` that the column refuses is named by its command-line option, not by
+    the field it sets; one line, exit 2, before any run (the JSON is not written)."""
+    from bsrflow.cli import main
+    js = tmp_path / "c.json"
+    assert main(argv + ["--json", str(js)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"error: {option} = " in err[0] and "valid range" in err[0]
+    assert not js.exists()

@@ -9,7 +9,7 @@ import sys
 import pytest
 
 from bsrflow.cli import main
-from bsrflow.io.config import CFL_LIMITS, Config, ConfigError, default_config_text, load_config
+from bsrflow.io.config import CFL_LIMITS, Config, ConfigError, default_config_text, load_config, saved_config
 from bsrflow.physics.column import ColumnSetup
 
 TINY = {"column": {"n_spheres": 3}, "tap": {"start": 0.02},
@@ -88,6 +88,33 @@ def test_init_refuses_to_overwrite_without_force(tmp_path, capsys):
     assert path.read_text() == "# mine\n"
     assert main(["init", str(path), "--force"]) == 0
     assert load_config(path) == Config.default()
+
+
+def test_packing_config_refuses_the_seed_kernels_constants(tmp_path, capsys):
+    """m0 and kernel_dissipation do not enter the packing continuum: a packing config that sets
+    them (in its tables or by an override) is refused in one line naming the field, never run with
+    them silently ignored; `init --kernel packing` writes a config without them that runs, and an
+    override of another field keeps them unset."""
+    path = tmp_path / "p.toml"
+    assert main(["init", str(path), "--kernel", "packing"]) == 0
+    cfg = load_config(path)
+    assert cfg.model.kernel == "packing" and cfg.formulation == "lagrangian"
+    assert "\nm0 =" not in path.read_text() and "# m0 = 406.0" in path.read_text()
+    assert cfg.with_overrides({"a_over_d": 0.5}).tap.a_over_d == 0.5
+    for key, val in (("m0", 406.0), ("eps", 0.5), ("column.kernel_dissipation", 0.9)):
+        with pytest.raises(ConfigError, match=r"^column\.(m0|kernel_dissipation): .*remove it"):
+            cfg.with_overrides({key: val})
+    with pytest.raises(ConfigError, match=r"^column\.m0: "):
+        Config.from_dict({"column": {"m0": 406.0}, "model": {"kernel": "packing"}})
+    seed = tmp_path / "s.toml"                          # the seed's config, switched on the command line
+    assert main(["init", str(seed)]) == 0
+    capsys.readouterr()
+    assert main(["run", str(seed), "--out", str(tmp_path / "x.nc"), "--set", "model.kernel=packing"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "column.m0" in err[0] and not (tmp_path / "x.nc").exists()
+    # an output written before the refusal (a packing config with m0 in its TOML) still reads back
+    old = cfg.to_toml().replace("# m0 = 406.0", "m0 = 406.0")
+    assert saved_config(old) == cfg
 
 
 def test_overrides_dotted_short_and_aliases():

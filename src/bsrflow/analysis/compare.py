@@ -270,7 +270,7 @@ def _packing_main(args) -> int:
         raise ValueError("--diameter is not an option of --kernel packing (its cases set d = 5, 10, 22 mm)")
     if args.scheme != "seed":
         raise ValueError("--scheme is an option of the seed kernel only (valid with --kernel packing: none)")
-    base = ColumnSetup(kernel_name="packing", **kw)
+    base = _setup_from_options(kernel_name="packing", **kw)
     for form, rng in models:                       # every model checked before the first run
         try:
             base.with_(formulation=form, range_over_d=rng)
@@ -299,6 +299,20 @@ def _packing_main(args) -> int:
     return 0
 
 
+_OPTION_OF = {"points_per_diameter": "--ppd", "diameter": "--diameter", "stiffness_factor": "--stiffness-factor"}
+
+
+def _setup_from_options(**kw) -> ColumnSetup:
+    """ColumnSetup(**kw); its one-line ValueError names the command-line option that set the field."""
+    try:
+        return ColumnSetup(**kw)
+    except ValueError as exc:
+        name, sep, rest = str(exc).partition(" = ")
+        if sep and name in _OPTION_OF and name in kw:
+            raise ValueError(f"{_OPTION_OF[name]} = {rest}") from None
+        raise
+
+
 def _main(args) -> int:
     if getattr(args, "kernel", "seed") not in ("seed", "packing"):
         raise ValueError(f"--kernel = {args.kernel!r} is not one of seed, packing")
@@ -312,7 +326,7 @@ def _main(args) -> int:
         kw["diameter"] = args.diameter
     if args.ppd is not None:
         kw["points_per_diameter"] = args.ppd
-    base = ColumnSetup(**kw)
+    base = _setup_from_options(**kw)
     from ..numerics.solver import Scheme
     Scheme.preset(args.scheme)                     # an unknown preset is refused before the DEM runs
     if args.command == "demo":

@@ -294,16 +294,18 @@ def _main(args) -> int:
         overrides["t_end"] = float(dump.t[-1] - args.time_offset)
     source = SetupSource.load(args.config)
     source.check_names(overrides)
-    setup, scheme = source.setup_and_scheme(overrides)
-    if setup.kernel_name == "packing":              # the config refuses the seed's scheme options itself
-        from ..tools.setup_source import canonical_name
-        given = [opt for opt, fld, _t, _h in _SETUP_OPTIONS if fld in ("m0", "kernel_dissipation")
-                 and getattr(args, fld) is not None]
-        given += [f"--set {k}" for k in (item.partition("=")[0].strip() for item in args.set)
-                  if canonical_name(k) in ("m0", "kernel_dissipation")]
-        if given:
-            raise ValueError(f"{given[0]} is a constant of the seed kernel only; the packing continuum has no m0 or "
-                             "eps: leave it out")
+    from ..tools.setup_source import canonical_name
+    seed_given = [opt for opt, fld, _t, _h in _SETUP_OPTIONS if fld in ("m0", "kernel_dissipation")
+                  and getattr(args, fld) is not None]
+    seed_given += [f"--set {k}" for k in (item.partition("=")[0].strip() for item in args.set)
+                   if canonical_name(k) in ("m0", "kernel_dissipation")]
+    try:
+        setup, scheme = source.setup_and_scheme(overrides)
+    except ValueError as exc:    # the config refuses the seed's constants with the packing kernel: name the option
+        if seed_given and str(exc).startswith(("column.m0:", "column.kernel_dissipation:")):
+            raise ValueError(f"{seed_given[0]} is a constant of the seed kernel only; the packing continuum has "
+                             "no m0 or eps: leave it out") from None
+        raise
     t_rel = dump.t - args.time_offset
     after = (t_rel >= setup.tap_start - 1e-12) & (t_rel <= setup.t_end + 1e-9 * max(1.0, setup.t_end))
     if after.any():

@@ -31,6 +31,9 @@ def add_parser(sub):
                                    "(units and valid ranges in the comments).")
     p.add_argument("path", metavar="PATH", help="file to write, e.g. column.toml (its folder must exist)")
     p.add_argument("--force", action="store_true", help="overwrite PATH if it exists")
+    p.add_argument("--kernel", choices=("seed", "packing"), default="seed",
+                   help="the interaction of the config: the seed's kernel (default; m0 and kernel_dissipation "
+                        "calibrated) or the packing continuum (nothing fitted)")
     p.set_defaults(func=_init)
 
     p = sub.add_parser("run", help="run a config (TOML) into a netCDF file, with checkpoints and --resume",
@@ -80,7 +83,7 @@ def _init(args) -> int:
     if os.path.exists(path) and not args.force:
         raise ConfigError(path, "exists; use --force to overwrite it")
     with open(path, "w", encoding="utf-8") as fh:
-        fh.write(default_config_text())
+        fh.write(default_config_text(args.kernel))
     print(f"wrote {path}; run it with: bsrflow run {path}")
     return 0
 

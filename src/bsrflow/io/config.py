@@ -40,7 +40,7 @@ import tomllib
 from dataclasses import dataclass
 from typing import Any, Mapping
 
-__all__ = ["Config", "ConfigError", "load_config", "default_config_text", "parse_override",
+__all__ = ["Config", "ConfigError", "load_config", "default_config_text", "saved_config", "parse_override",
            "CFL_LIMITS", "FIELDS"]
 
 
@@ -144,8 +144,8 @@ FIELDS: tuple[_Field, ...] = (
     # [model] -- the interaction
     _Field("model", "kernel", "str", "seed", "interaction: \"seed\" (the seed's kernel (4.6) with m0 "
            "and kernel_dissipation, solved by numerics.scheme) or \"packing\" (the contact law's "
-           "continuum: only K, e, d, density, N and g enter; m0, kernel_dissipation, scheme, stepper, "
-           "rtol and atol do not apply)", choices=("seed", "packing")),
+           "continuum: only K, e, d, density, N and g enter; m0, kernel_dissipation, a scheme other "
+           "than \"seed\", stepper, rtol and atol are refused with it)", choices=("seed", "packing")),
     _Field("model", "stiffness_factor", "float", 1.0, "packing only: the contact stiffness used is K "
            "times this factor (1: the DEM's own; smaller runs faster at a documented cost in "
            "accuracy)", "", 0, 1, lo_open=True),
@@ -321,6 +321,9 @@ def _range_error(f: _Field, v, hi=None, why: str = "") -> ConfigError:
                        + (f" ({why})" if why else ""), v, rng)
 
 
+_SEED_CONSTANTS = ("column.m0", "column.kernel_dissipation")   # refused with model.kernel = "packing"
+
+
 # -- sections and the config ------------------------------------------------------------------
 class Section(Mapping):
     """Read-only view of one table: ``cfg.tap.a_over_d`` or ``cfg.tap["a_over_d"]``."""
@@ -361,9 +364,10 @@ class Config:
     :meth:`from_dict`; change with :meth:`with_overrides`.
     """
 
-    def __init__(self, values: dict, source: str | None = None):
+    def __init__(self, values: dict, source: str | None = None, given=()):
         self._values = dict(values)
         self.source = source
+        self._given = frozenset(given)      # the dotted names the user's tables set
         for t in _TABLES:
             setattr(self, t, Section(t, self._values))
 
@@ -380,6 +384,7 @@ class Config:
         if not isinstance(d, Mapping):
             raise ConfigError("config", f"expected a table, got {_describe(d)}")
         values = {f.name: f.default for f in FIELDS}
+        given: set[str] = set()
         for table, body in d.items():
             if table not in _TABLES:
                 if table in _SHORT and not isinstance(body, Mapping):   # a key outside any table
@@ -406,7 +411,8 @@ class Config:
                     raise ConfigError(name, f"unknown key in [{table}]{hint} (valid keys: "
                                       f"{', '.join(keys)})", v)
                 values[name] = _check_type(f, v)
-        cfg = cls(values, source)
+                given.add(name)
+        cfg = cls(values, source, given)
         cfg._validate()
         return cfg
 
@@ -417,7 +423,7 @@ class Config:
         (column.kernel_dissipation), ``N`` (column.n_spheres), ``K`` (column.stiffness), ``g``
         (column.gravity), ``taps`` (tap.n_taps), ``ppd`` (numerics.points_per_diameter), and
         ColumnSetup's ``tap_start``, ``tap_period``.  A value ``None`` removes an optional key."""
-        nested = self.to_dict()
+        nested = self._given_dict()
         for key, v in overrides.items():
             name = self.resolve_key(key)
             table, k = name.split(".")
@@ -478,6 +484,12 @@ class Config:
             raise ConfigError("tap.period", f"{v['tap.period']!r} is outside the valid range {rng}: "
                               f"shorter than one tap, which lasts 1/(2f) = {dur:g} s", v["tap.period"], rng)
         if v["model.kernel"] == "packing":
+            for key in _SEED_CONSTANTS:
+                if key in self._given:
+                    raise ConfigError(key, f"{v[key]!r}: a constant of the seed kernel, which does not enter "
+                                      'the packing continuum (only K, e, d, density, N and g do); with '
+                                      'model.kernel = "packing" remove it (`bsrflow init --kernel packing` '
+                                      "writes a packing config)", v[key])
             if v["model.stiffness_mach"] > 0.0 and v["model.stiffness_factor"] != 1.0:
                 raise ConfigError("model.stiffness_mach", f"{v['model.stiffness_mach']!r} together with "
                                   f"model.stiffness_factor = {v['model.stiffness_factor']!r}: give one of the two",
@@ -676,6 +688,16 @@ class Config:
     def __repr__(self):
         return "Config(" + ", ".join(f"{k}={v!r}" for k, v in self._values.items() if v is not None) + ")"
 
+    def _given_dict(self) -> dict:
+        """Like :meth:`to_dict`, only the fields the user's tables set (the others keep their
+        defaults when the dict is read back)."""
+        out: dict = {t: {} for t in _TABLES}
+        for f in FIELDS:
+            val = self._values[f.name]
+            if f.name in self._given and val is not None:
+                out[f.table][f.key] = list(val) if isinstance(val, tuple) else val
+        return out
+
     def to_dict(self) -> dict:
         """Nested plain dict ``{table: {key: value}}``; absent optional keys are left out."""
         out: dict = {t: {} for t in _TABLES}
@@ -710,7 +732,10 @@ class Config:
                            "the moving average (seed); kutta3/bs32 1.7321, rk4/rk4_0.4_0.25 2.8284 without (accurate)")
                 lines.append(f"# {f.doc}{unit}; valid: {rng}")
                 val = self._values[f.name]
-                if val is None:
+                if f.name in _SEED_CONSTANTS and self._values["model.kernel"] == "packing":
+                    lines.append(f"# {f.key} = {_toml_value(val)}  # the seed kernel's only: refused with "
+                                 'model.kernel = "packing"')
+                elif val is None:
                     example = {"run.checkpoint_every": "0.1", "numerics.cfl": "0.5", "numerics.stepper": '"bs32"', "numerics.rtol": "1e-4",
                                "model.range_over_d": '1.0  # with model.kernel = "packing"',
                                "numerics.formulation": '"lagrangian"  # with model.kernel = "packing"',
@@ -769,9 +794,23 @@ def load_config(path) -> Config:
     return Config.from_dict(data, source=path)
 
 
-def default_config_text() -> str:
-    """The commented default config (what ``bsrflow init`` writes)."""
-    return Config.default().to_toml()
+def saved_config(text: str) -> Config:
+    """The config of a TOML text written by :meth:`Config.to_toml` into an output or checkpoint.
+    Files written before the seed kernel's constants were refused with the packing kernel carry
+    ``column.m0`` and ``column.kernel_dissipation`` there; they are dropped for such a config."""
+    data = tomllib.loads(text)
+    if isinstance(data.get("model"), dict) and data["model"].get("kernel") == "packing":
+        for key in _SEED_CONSTANTS:
+            data.get("column", {}).pop(key.split(".")[1], None)
+    return Config.from_dict(data)
+
+
+def default_config_text(kernel: str = "seed") -> str:
+    """The commented default config (what ``bsrflow init`` writes): the seed's kernel, or with
+    ``kernel="packing"`` the packing continuum (its Lagrangian formulation, the default)."""
+    if kernel == "seed":
+        return Config.default().to_toml()
+    return Config.from_dict({"model": {"kernel": kernel}}).to_toml()
 
 
 def parse_override(text: str) -> tuple[str, Any]:

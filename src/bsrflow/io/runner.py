@@ -34,7 +34,7 @@ import numpy as np
 from ..numerics.solver import SimulationError
 from ..physics.column import initial_density
 from .checkpoint import Checkpoint, checkpoint_path, read_checkpoint, write_checkpoint
-from .config import Config, ConfigError
+from .config import Config, ConfigError, saved_config
 from .netcdf import NetCDFWriter, finished_snapshots
 from .paths import check_output_file
 
@@ -208,7 +208,7 @@ def _complete_output(out, config: Config, log) -> RunOutcome | None:
     if data is None:
         return None
     try:
-        diff = _config_difference(config, Config.from_dict(tomllib.loads(str(data["attrs"].get("config", "")))))
+        diff = _config_difference(config, saved_config(str(data["attrs"].get("config", ""))))
     except (ValueError, tomllib.TOMLDecodeError):
         diff = "its config, which cannot be read"
     if diff:
@@ -225,7 +225,7 @@ def _read_matching_checkpoint(config: Config, ckpt_file) -> Checkpoint:
     """The checkpoint of a resume, refused (one line) unless it was written by this config."""
     try:
         ck = read_checkpoint(ckpt_file)
-        old = Config.from_dict(tomllib.loads(ck.config))
+        old = saved_config(ck.config)
     except (ValueError, tomllib.TOMLDecodeError) as exc:
         raise ConfigError("--resume", f"cannot read the checkpoint: {exc}") from None
     diff = _config_difference(config, old)
