@@ -438,8 +438,10 @@ def _stage3(qf, i1f, i2f, dqf, dt):
 
 @numba.njit(cache=True)
 def fv_advance_nd(q, t, t_stop, dim, dx, cfl, c_bound, d, m, k1, k2, rho_tiny, rho_floor, top_fraction, fn, params,
-                  gravity, counters, tracers, lo, box, work):
-    """SSP-RK3 steps (increment form, as the 1-D ``fv_advance``) from t to exactly t_stop.
+                  gravity, counters, tracers, lo, box, work, max_steps):
+    """SSP-RK3 steps (increment form, as the 1-D ``fv_advance``) from t to exactly t_stop, at most
+    ``max_steps`` of them (the caller continues from the t returned: every step is chosen from
+    the state alone, so the steps are the same however the interval is cut).
     counters: [steps, status, where]; status 1 negative density, 2 non-finite, 3 more than
     ``top_fraction`` of the mass in the top 6 layers of cells (the 1-D column stops on any
     material there; see :attr:`EulerianPackingND.top_fraction`).  tracers (n, 3) [m] (floor
@@ -453,7 +455,8 @@ def fv_advance_nd(q, t, t_stop, dim, dx, cfl, c_bound, d, m, k1, k2, rho_tiny, r
     q1, q2, dq, inc1, inc2 = work[0], work[1], work[2], work[3], work[4]
     qf, q1f, q2f, dqf = q.reshape(-1), q1.reshape(-1), q2.reshape(-1), dq.reshape(-1)
     i1f, i2f = inc1.reshape(-1), inc2.reshape(-1)
-    while t < t_stop:
+    n_steps = 0
+    while t < t_stop and n_steps < max_steps:
         umax, near_top, status, where = _speed_and_top(q, rho_tiny)
         if status:
             counters[1], counters[2] = status, where
@@ -484,6 +487,7 @@ def fv_advance_nd(q, t, t_stop, dim, dx, cfl, c_bound, d, m, k1, k2, rho_tiny, r
         fv_post_step_nd(q, d, m, rho_floor)
         t = t_stop if last else t + dt
         counters[0] += 1
+        n_steps += 1
     umax, near_top, status, where = _speed_and_top(q, rho_tiny)
     if status:
         counters[1], counters[2] = status, where
@@ -623,6 +627,11 @@ class EulerianPackingND:
             return
         self.q[MZ] -= dv * self.q[RHO]
 
+    STEP_CHUNK_CELL_STEPS = 1 << 22
+    """Cell-steps per compiled call of a 2-D / 3-D run (at least one step): Python handles a
+    signal (Ctrl-C, SIGTERM) only between calls, and 4.2e6 cell-steps take about a second (the
+    step's 65–140 ns per cell-stage, README).  The results do not depend on it (tested)."""
+
     PARALLEL_MIN_CELLS = 32768
     """Grids smaller than this run on one thread: waking the second thread for every parallel
     loop costs more than the loop (measured: 1.8 ms against 62 µs per step on 3 × 118 cells)."""
@@ -651,10 +660,15 @@ class EulerianPackingND:
                 where = float(self.grid.z[min(int(self.counters[2]), self.grid.shape[0] - 1)])
                 raise PackingError(f"{msg} at t = {t:.6g} s, z = {where:.4g} m (cell {int(self.counters[2])})", t, where)
             return t
-        t = fv_advance_nd(self.q, float(t), float(t_stop), self.dim, self.grid.dx, self.cfl, self.c_bound,
-                          law.diameter, law.m_eff, law.k1, law.k2, self.rho_tiny, self.rho_floor, self.top_fraction,
-                          self._fn, self._params, self.gravity, self.counters, self.tracers, self._lo, self._box,
-                          self._work())
+        chunk = max(1, self.STEP_CHUNK_CELL_STEPS // self.grid.n_cells)
+        t, t_stop = float(t), float(t_stop)
+        while True:     # in chunks of steps, so that Ctrl-C / SIGTERM are handled within about a second
+            t = fv_advance_nd(self.q, t, t_stop, self.dim, self.grid.dx, self.cfl, self.c_bound,
+                              law.diameter, law.m_eff, law.k1, law.k2, self.rho_tiny, self.rho_floor, self.top_fraction,
+                              self._fn, self._params, self.gravity, self.counters, self.tracers, self._lo, self._box,
+                              self._work(), chunk)
+            if t >= t_stop or self.counters[1]:
+                break
         self.steps = int(self.counters[0])
         status = int(self.counters[1])
         if status == 3:

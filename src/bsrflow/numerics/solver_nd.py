@@ -181,6 +181,11 @@ class SimulationND:
         as the 1-D solver's ``density_floor`` (on a column that option itself).
     """
 
+    STEP_CHUNK_CELL_STEPS = 1 << 20
+    """Cell-steps per compiled call of a 2-D / 3-D :meth:`run` (at least one step): Python handles
+    a signal (Ctrl-C, SIGTERM) only between calls, and 1e6 cell-steps of the seed's kernel take
+    about 1–3 s (README, "Two and three dimensions").  The results do not depend on it (tested)."""
+
     def __init__(self, model: BSRModelND, grid: GridND, scheme: Scheme | None = None, *, average="na",
                  rho_max=0.0, dt_min=1e-12, top_tolerance=0.0, max_steps=50_000_000, vacuum_density=0.0,
                  density_floor=0.0):
@@ -461,12 +466,20 @@ class SimulationND:
                              "model": self.model.to_dict(), "kernel_radius_cells": self.W},
                             None if tri is None else np.array(trs).reshape(len(ts), tri.shape[0], g.dim))
 
+        chunk = max(1, self.STEP_CHUNK_CELL_STEPS // g.n_cells)
+
         def advance(t, ev):
             nonlocal total
-            t_new, steps, status, where, dt_last = self.advance_internal(ui, ri, t, ev,
-                                                                         max_steps=self.max_steps - total,
-                                                                         tracers=tri)
-            total += steps
+            while True:     # in chunks of steps, so that Ctrl-C / SIGTERM are handled within seconds
+                budget = self.max_steps - total
+                n = min(budget if budget > 0 else self.max_steps, chunk)
+                t_new, steps, status, where, dt_last = self.advance_internal(ui, ri, t, ev, max_steps=n,
+                                                                             tracers=tri)
+                total += steps
+                if status == 4 and n < budget:       # the chunk ended, not the run's step budget
+                    t = t_new
+                    continue
+                break
             if status != 0:
                 pos = self._position(where)
                 msg = (f"simulation stopped at t = {t_new:.6g} s near x = {pos} m: {STATUS[status]}; "
