@@ -488,9 +488,10 @@ def fv_advance_nd(q, t, t_stop, dim, dx, cfl, c_bound, d, m, k1, k2, rho_tiny, r
         t = t_stop if last else t + dt
         counters[0] += 1
         n_steps += 1
-    umax, near_top, status, where = _speed_and_top(q, rho_tiny)
-    if status:
-        counters[1], counters[2] = status, where
+    if t >= t_stop:                 # (a chunk that ends earlier is checked at the next call's first step)
+        umax, near_top, status, where = _speed_and_top(q, rho_tiny)
+        if status:
+            counters[1], counters[2] = status, where
     return t
 
 
