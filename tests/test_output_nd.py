@@ -115,8 +115,9 @@ def test_nd_restart_from_a_checkpoint_event_is_bit_for_bit():
 
 
 def test_a_columns_netcdf_file_through_the_nd_writer(tmp_path):
-    """The n-D writer takes a column (dim = 1) too: rho on (time, z) in kg m-1, u_z, tracers;
-    the VTK writer refuses it in one line."""
+    """The n-D writers take a column (dim = 1) too: netCDF with rho on (time, z) in kg m-1, u_z,
+    tracers; VTK with line cells along z, the density in kg/m and the tracers as points on z."""
+    import meshio
     import xarray as xr
 
     from bsrflow.io.netcdf import NetCDFWriterND
@@ -132,8 +133,10 @@ def test_a_columns_netcdf_file_through_the_nd_writer(tmp_path):
     rho0 = np.where(grid.z < 0.05, 0.3, 0.0)
     floor = lambda t: sim.model.motion.state(t)[0]  # noqa: E731
     path = tmp_path / "column.nc"
+    vtk = VTKWriter(grid, tmp_path / "col")
     with NetCDFWriterND(path, grid, floor, expected_snapshots=6, n_tracers=2) as w:
-        res = sim.run(np.zeros((1, 100)), rho0, 0.05, save_every=0.01, observers=[w], tracers=[[0.01], [0.04]])
+        res = sim.run(np.zeros((1, 100)), rho0, 0.05, save_every=0.01, observers=[w, vtk],
+                      tracers=[[0.01], [0.04]])
         w.close("ok")
     ds = xr.open_dataset(path)
     assert ds["rho"].dims == ("time", "z") and ds["rho"].attrs["units"] == "kg m-1"
@@ -142,5 +145,16 @@ def test_a_columns_netcdf_file_through_the_nd_writer(tmp_path):
     np.testing.assert_allclose(ds["tracer_z"].values - ds["floor"].values[:, None], res.tracers[:, :, 0], rtol=1e-12)
     np.testing.assert_allclose(ds["mass"].values, ds["mass"].values[0], rtol=1e-12)
     ds.close()
-    with pytest.raises(ValueError, match="VTK output needs a 2-D or 3-D grid"):
-        VTKWriter(grid, tmp_path / "col")
+    assert len(vtk.files) == 6 and (tmp_path / "col.pvd").read_text().count('part="1"') == 6
+    for k, f in enumerate(vtk.files):
+        mesh = meshio.read(f)
+        assert mesh.cells[0].type == "line" and mesh.cells[0].data.shape == (100, 2)
+        np.testing.assert_array_equal(mesh.cell_data["density [kg/m]"][0], res.rho[k])
+        np.testing.assert_array_equal(mesh.cell_data[VELOCITY_NAME][0][:, 2], res.u[k, 0])
+        assert not mesh.cell_data[VELOCITY_NAME][0][:, :2].any()
+        centres = mesh.points[mesh.cells[0].data].mean(axis=1)
+        np.testing.assert_allclose(centres[:, 2], grid.z, rtol=0, atol=1e-15)
+        assert not centres[:, :2].any()
+        pts = meshio.read(vtk.tracer_files[k]).points
+        np.testing.assert_array_equal(pts[:, 2], res.tracers[k, :, 0])
+        assert not pts[:, :2].any()

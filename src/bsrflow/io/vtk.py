@@ -1,9 +1,9 @@
-"""VTK output of 2-D / 3-D fields for ParaView, beside the netCDF file (issue #19).
+"""VTK output of 1-D / 2-D / 3-D fields for ParaView, beside the netCDF file (issue #19).
 
 :class:`VTKWriter` is an observer ``obs(t, u, rho, tracers)`` of
 :meth:`bsrflow.numerics.solver_nd.SimulationND.run`.  Every snapshot becomes one VTK XML
 unstructured-grid file ``<stem>_<k>.vtu`` (written by meshio: hexahedral cells in 3-D,
-quadrilaterals in 2-D, the grid's cells exactly) and the collection ``<stem>.pvd`` lists them with
+quadrilaterals in 2-D, line segments along z for a column, the grid's cells exactly) and the collection ``<stem>.pvd`` lists them with
 their times, so ParaView opens the whole run as one time series.
 
 Fields (cell data; VTK has no units attribute, so the unit is part of the name):
@@ -11,8 +11,10 @@ Fields (cell data; VTK has no units attribute, so the unit is part of the name):
 =====================  ===========  =============================================
 name                   units        meaning
 =====================  ===========  =============================================
-``density [kg/m^3]``   kg/m³        ρ (2-D runs: ``density [kg/m^2]``, per unit depth)
-``velocity [m/s]``     m/s          (u_x, u_y, u_z) relative to the floor (2-D: u_y = 0)
+``density [kg/m^3]``   kg/m³        ρ (2-D runs: ``density [kg/m^2]``, per unit depth;
+                                    a column: ``density [kg/m]``, per unit length)
+``velocity [m/s]``     m/s          (u_x, u_y, u_z) relative to the floor (2-D: u_y = 0;
+                                    a column: (0, 0, u))
 =====================  ===========  =============================================
 
 Tracers (a run with tracers): one more file per snapshot, ``<stem>_tracers_<k>.vtu``, with the
@@ -20,7 +22,7 @@ tracers as points (VTK vertices) and their index as the point field ``tracer [1]
 lists them as part 1 of each time step, beside the fields (part 0).
 
 Coordinates [m]: the floor frame, z vertical (a 2-D run's (x, z) plane is put at y = 0, so z
-stays vertical in ParaView).  The times [s] are those of the ``.pvd`` collection (``timestep``);
+stays vertical in ParaView; a column is the z axis at x = y = 0).  The times [s] are those of the ``.pvd`` collection (``timestep``);
 the floor's lab position ϑ(t) [m] is in the run's netCDF file (``floor``).
 
 Crash safety: each ``.vtu`` and the ``.pvd`` are written to a temporary file and renamed over
@@ -42,7 +44,7 @@ VELOCITY_NAME = "velocity [m/s]"
 
 def density_name(dim: int) -> str:
     """The density field's name in a ``dim``-D run's files."""
-    return f"density [kg/m^{dim}]"
+    return "density [kg/m]" if dim == 1 else f"density [kg/m^{dim}]"
 
 
 def _replace_atomically(path: Path, write) -> None:
@@ -68,9 +70,8 @@ class VTKWriter:
 
         self.grid = grid
         self.dim = int(grid.dim)
-        if self.dim not in (2, 3):
-            raise ValueError(f"VTK output needs a 2-D or 3-D grid (grid.dim = {self.dim}); a column's fields "
-                             "are in the netCDF file")
+        if self.dim not in (1, 2, 3):
+            raise ValueError(f"VTK output needs a 1-D, 2-D or 3-D grid (grid.dim = {self.dim})")
         self.stem = Path(os.fspath(stem))
         if not self.stem.parent.is_dir():
             raise ValueError(f"VTK output {self.stem}: folder {self.stem.parent} does not exist")
@@ -84,6 +85,11 @@ class VTKWriter:
         """Points (the cell corners, as (x, y, z) [m]) and the cell connectivity of the grid."""
         g = self.grid
         edges = [g.lower[a] + np.arange(g.shape[a] + 1) * g.dx for a in range(self.dim)]
+        if self.dim == 1:
+            nz = g.shape[0]
+            points = np.zeros((nz + 1, 3))
+            points[:, 2] = edges[0]
+            return points, [("line", np.column_stack([np.arange(nz), np.arange(1, nz + 1)]))]
         if self.dim == 2:
             nx, nz = g.shape
             X, Z = np.meshgrid(edges[0], edges[1], indexing="ij")
@@ -109,7 +115,9 @@ class VTKWriter:
         if rho.shape != tuple(self.grid.shape) or u.shape != (self.dim,) + tuple(self.grid.shape):
             raise ValueError(f"VTK output: rho {rho.shape} / u {u.shape} do not match the grid {self.grid.shape}")
         vel = np.zeros((rho.size, 3))
-        if self.dim == 2:
+        if self.dim == 1:
+            vel[:, 2] = u[0]
+        elif self.dim == 2:
             vel[:, 0], vel[:, 2] = u[0].ravel(), u[1].ravel()
         else:
             vel[:] = u.reshape(3, -1).T
@@ -130,7 +138,9 @@ class VTKWriter:
             if tr.ndim != 2 or tr.shape[1] != self.dim:
                 raise ValueError(f"VTK output: tracers of shape {tr.shape}, expected (n, {self.dim})")
             pts = np.zeros((tr.shape[0], 3))
-            pts[:, 0], pts[:, 2] = tr[:, 0], tr[:, -1]
+            pts[:, 2] = tr[:, -1]
+            if self.dim > 1:
+                pts[:, 0] = tr[:, 0]
             if self.dim == 3:
                 pts[:, 1] = tr[:, 1]
             cloud = meshio.Mesh(pts, [("vertex", np.arange(tr.shape[0])[:, None])],
