@@ -469,8 +469,8 @@ def test_packing_run_resumes_after_sigkill_bit_for_bit(tmp_path, capsys, form):
     from its checkpoint of the named fields (the history included) to the uninterrupted file
     bit for bit (issue #18)."""
     cfg_path = tmp_path / "packing.toml"
-    assert main(["init", str(cfg_path)]) == 0
-    sets = ["--set", "model.kernel=packing", "--set", f"numerics.formulation={form}", "--set", "column.n_spheres=6",
+    assert main(["init", str(cfg_path), "--kernel", "packing"]) == 0
+    sets = ["--set", f"numerics.formulation={form}", "--set", "column.n_spheres=6",
             "--set", "numerics.points_per_diameter=4", "--set", "tap.start=0.05", "--set", "run.t_end=0.3"]
     full = tmp_path / "full.nc"
     assert main(["run", str(cfg_path), "--out", str(full), "--quiet"] + sets) == 0
