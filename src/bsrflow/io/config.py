@@ -422,13 +422,16 @@ class Config:
         ``f`` (tap.frequency), ``d`` (column.diameter), ``e`` (column.restitution), ``eps``
         (column.kernel_dissipation), ``N`` (column.n_spheres), ``K`` (column.stiffness), ``g``
         (column.gravity), ``taps`` (tap.n_taps), ``ppd`` (numerics.points_per_diameter), and
-        ColumnSetup's ``tap_start``, ``tap_period``.  A value ``None`` removes an optional key."""
+        ColumnSetup's ``tap_start``, ``tap_period``.  A value ``None`` removes an optional key, or
+        the seed kernel's constants ``m0`` / ``kernel_dissipation`` (back to their defaults, no
+        longer set: so a seed config becomes a packing one with ``{"kernel": "packing", "m0": None,
+        "eps": None}``)."""
         nested = self._given_dict()
         for key, v in overrides.items():
             name = self.resolve_key(key)
             table, k = name.split(".")
             if v is None:
-                if _BY_NAME[name].default is not None:
+                if _BY_NAME[name].default is not None and name not in _SEED_CONSTANTS:
                     raise ConfigError(name, "cannot be removed (it is not optional)")
                 nested.get(table, {}).pop(k, None)
             else:
