@@ -169,3 +169,57 @@ def test_demo_refuses_a_file_in_place_of_its_figures_folder(tmp_path, capsys, no
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--out: " in err[0] and "figures is a file" in err[0], err
     np.testing.assert_equal(sorted(os.listdir(tmp_path / "out")), ["figures"])
+
+
+@pytest.mark.parametrize("argv, option", [
+    (["stability", "--json", "{x}", "--figures", "{x}"], "--figures"),
+    (["energy", "--json", "{x}", "--figures", "{x}"], "--figures"),
+    (["compare", "--json", "{x}", "--figures", "{x}"], "--figures"),
+    (["compare", "--kernel", "packing", "--json", "{x}", "--figures", "{x}"], "--figures"),
+    (["compare-dump", "{dump}", "--dt", "1e-5", "--json", "{x}", "--figures", "{x}"], "--figures"),
+    (["compare-dump", "{dump}", "--dt", "1e-5", "--json", "{dump}"], "--json"),
+    (["compare-bed", "--json", "{x}", "--figures", "{x}"], "--figures"),
+    (["sweep", "{cfg}", "--param", "a_over_d=0.5,1", "--out", "{cfg}"], "--out"),
+    (["sweep", "{cfg}", "--param", "a_over_d=0.5,1", "--out", "{x}", "--figure", "{x}"], "--figure"),
+])
+def test_two_options_naming_one_place_are_refused_before_any_work(tmp_path, capsys, no_work, argv, option):
+    """`--json x --figures x` failed with a traceback after the whole computation, and `sweep
+    --out CONFIG` overwrote the config: refused up front, one line naming the second option."""
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[run]\nt_end = 0.1\n")
+    dump = tmp_path / "d.dump"
+    dump.write_text("not read before the check")
+    args = [a.format(x=tmp_path / "x", dump=dump, cfg=cfg) for a in argv]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"error: {option}: " in err[0] and "is also given as" in err[0], err
+    assert sorted(os.listdir(tmp_path)) == ["c.toml", "d.dump"]
+    assert cfg.read_text() == "[run]\nt_end = 0.1\n"
+
+
+@pytest.mark.parametrize("extra, words", [
+    (["--figure", "{t}/f.txt"], "--figure"),
+    (["--scheduler", "tcp://127.0.0.1:1", "--workers", "3"], "--workers"),
+    (["--workers", "100000"], "--workers 100000 is outside the valid range"),
+    (["--param", "checkpoint_every=0.01,0.02"], "--param checkpoint_every"),
+    (["--set", "run.checkpoint_every=0.01"], "--set run.checkpoint_every"),
+])
+def test_sweep_refuses_options_without_effect_or_a_bad_figure_up_front(tmp_path, capsys, no_work, extra, words):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[run]\nt_end = 0.1\n")
+    args = ["sweep", str(cfg), "--param", "f=10,12", "--out", str(tmp_path / "s.nc")]
+    assert main(args + [a.format(t=tmp_path) for a in extra]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0], err
+    assert sorted(os.listdir(tmp_path)) == ["c.toml"]
+
+
+def test_layer_vtk_folder_is_checked_before_the_run(tmp_path, capsys, no_work):
+    """A file where a layer run's VTK folder goes failed with a traceback; refused up front."""
+    cfg = tmp_path / "l.toml"
+    cfg.write_text('[layer]\nkind = "tapped_layer"\ndim = 2\n[output]\nvtk = true\n')
+    (tmp_path / "o_vtk").write_text("x")
+    assert main(["run", str(cfg), "--out", str(tmp_path / "o.nc")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "output.vtk" in err[0] and "o_vtk is a file" in err[0], err
+    assert sorted(os.listdir(tmp_path)) == ["l.toml", "o_vtk"]

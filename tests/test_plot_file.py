@@ -112,3 +112,30 @@ def test_plot_command(tmp_path, capsys):
     xr.Dataset({"a": ("n", [1.0])}).to_netcdf(tmp_path / "notime.nc")
     assert main(["plot", str(tmp_path / "notime.nc")]) == 2
     assert "no 'time'" in capsys.readouterr().err
+
+
+def test_layer_files_are_plotted_with_the_horizontal_average(tmp_path, capsys):
+    """A 2-D layer's file (rho(time, x, z), tracer_z): the density map is the average over x, the
+    tracers are its tracer_z; four figures, exit 0 (it failed with a traceback before)."""
+    from bsrflow.cli import main
+    from bsrflow.tools.plot_file import vertical_density
+
+    rng = np.random.default_rng(3)
+    rho = rng.uniform(0.0, 5.0, (4, 6, 9))
+    rho[1, :, 2] = np.nan
+    ds = xr.Dataset({"rho": (("time", "x", "z"), rho)}, coords={"time": np.arange(4.0), "x": np.arange(6.0),
+                                                                "z": np.arange(9.0)})
+    name, avg, averaged = vertical_density(ds, rho)
+    assert name == "z" and averaged and avg.shape == (4, 9)
+    np.testing.assert_allclose(avg[0], rho[0].mean(axis=0), rtol=1e-15)
+    assert np.isnan(avg[1, 2]) and np.isfinite(np.delete(avg, 2, axis=1)).all()
+    cfg = tmp_path / "l.toml"
+    cfg.write_text('[layer]\nkind = "tapped_layer"\ndim = 2\nt_end = 0.02\nsave_every = 0.01\n'
+                   '[tracers]\npositions = [[0.002, 0.001], [0.004, 0.002]]\n')
+    out = tmp_path / "l.nc"
+    assert main(["run", str(cfg), "--out", str(out), "--quiet"]) == 0
+    capsys.readouterr()
+    assert main(["plot", str(out), "--out", str(tmp_path / "fig")]) == 0
+    assert capsys.readouterr().err == ""
+    for kind in KINDS:
+        assert os.path.getsize(tmp_path / "fig" / f"l_{kind}.png") > 1000

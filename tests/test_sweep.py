@@ -143,7 +143,8 @@ def test_dataset_and_figure_with_word_coordinates(tmp_path):
 def test_two_worker_local_cluster_sweep(tmp_path, capsys):
     """3 x 2 = 6 tiny cases on a 2-process LocalCluster, without kernel dissipation at CFL 2.3
     (valid: below the linear limit 2.3388); at a/d = 5 the time step collapses at t = 0.021 s,
-    so those 2 cases stop; the other 4 succeed; exit code 3; file and figure.  (A case with an
+    so those 2 cases stop (with the results of their snapshots before the stop); the other 4
+    succeed; exit code 3; file and figure.  (A case with an
     invalid value, e.g. a/d = 30, is refused before the cluster starts: test_commands.py.)"""
     from bsrflow.cli import main
 
@@ -170,7 +171,11 @@ def test_two_worker_local_cluster_sweep(tmp_path, capsys):
     np.testing.assert_allclose(ok["top_max"] / 0.022, ok["top_max_over_d"])
     np.testing.assert_allclose(ok["t_final"], 0.1)
     assert np.all(ok["mass_drift"] < 1e-12)
-    assert np.isnan(ds["top_max"].values[2]).all()
+    # a stopped case keeps the results of its snapshots before the stop (no NaN) and its steps
+    stopped = ds.isel(a_over_d=2)
+    assert np.isfinite(stopped["top_max"].values).all() and (stopped["top_max"].values > 0).all()
+    assert np.all((stopped["t_final"].values >= 0.021) & (stopped["t_final"].values < 0.022))   # the stop
+    assert (stopped["steps"].values > 0).all() and np.all(stopped["mass_drift"].values < 1e-12)
     # tapping harder throws the column higher
     assert np.all(ok["top_max_over_d"].values[1] > ok["top_max_over_d"].values[0])
     assert ds.attrs["cases"] == 6 and ds.attrs["cases_ok"] == 4 and "LocalCluster" in ds.attrs["scheduler"]

@@ -30,7 +30,7 @@ import time
 
 import numpy as np
 
-from ..io.paths import DIR_RULE, FILE_RULE, check_output_dir, check_output_file
+from ..io.paths import DIR_RULE, FILE_RULE, check_distinct, check_output_dir, check_output_file
 from ..numerics.solver import SimulationError
 from ..physics.column import ColumnSetup, run_bsr_column
 
@@ -237,6 +237,7 @@ def add_parser(sub):
 def _packing_main(args) -> int:
     from .compare_packing import (PACKING_CASES, PACKING_MODELS, compare_packing, format_packing_table, model_label,
                                   parse_models)
+    check_distinct(("--json", args.json), ("--figures", args.figures))
     requested = PACKING_MODELS if args.models is None else parse_models(args.models)
     forms = tuple(("eulerian,lagrangian" if args.formulation is None else args.formulation).split(","))
     bad = [f for f in forms if f not in ("eulerian", "lagrangian")]
@@ -336,6 +337,7 @@ def _main(args) -> int:
         check_output_dir(os.path.join(args.out, "figures_packing"), "--out", create=True)
     else:
         json_path, figures = args.json, args.figures
+        check_distinct(("--json", json_path), ("--figures", figures))
         if json_path:
             check_output_file(json_path, "--json")
         if figures:

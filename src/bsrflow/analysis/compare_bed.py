@@ -306,8 +306,9 @@ def add_parser(sub):
 
 
 def _main(args) -> int:
-    from ..io.paths import check_output_dir, check_output_file
+    from ..io.paths import check_distinct, check_output_dir, check_output_file
 
+    check_distinct(("--reference", args.reference), ("--json", args.json), ("--figures", args.figures))
     if args.json is not None:
         check_output_file(args.json, "--json")
     ref = Path(args.reference)

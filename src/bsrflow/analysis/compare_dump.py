@@ -252,9 +252,11 @@ def add_parser(sub):
 def _main(args) -> int:
     from ..io.lammps import read_dump, time_mismatch
     from ..physics.column import run_bsr_column
-    from ..io.paths import check_output_dir, check_output_file
+    from ..io.paths import check_distinct, check_output_dir, check_output_file
     from ..tools.setup_source import SetupSource, parse_value
 
+    check_distinct(("DUMP", args.dump), ("--config", args.config), ("--json", args.json),
+                   ("--figures", args.figures))
     if args.json is not None:
         check_output_file(args.json, "--json")
     if args.figures is not None:

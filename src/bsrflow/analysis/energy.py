@@ -26,7 +26,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..io.paths import DIR_RULE, FILE_RULE, check_output_dir, check_output_file
+from ..io.paths import DIR_RULE, FILE_RULE, check_distinct, check_output_dir, check_output_file
 from ..numerics.solver import Scheme, Simulation, SimulationError
 from ..physics.column import ColumnSetup, column_run_from_result, initial_density
 from ..physics.model import BSRModel
@@ -241,6 +241,7 @@ def add_parser(sub):
 
 
 def _main(args) -> int:
+    check_distinct(("--calibration", args.calibration), ("--json", args.json), ("--figures", args.figures))
     if args.json is not None:
         check_output_file(args.json, "--json")
     if args.figures is not None:

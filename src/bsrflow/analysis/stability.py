@@ -532,7 +532,8 @@ def add_parser(sub):
 
 
 def func(args) -> int:
-    from ..io.paths import check_output_dir, check_output_file
+    from ..io.paths import check_distinct, check_output_dir, check_output_file
+    check_distinct(("--json", getattr(args, "json", None)), ("--figures", getattr(args, "figures", None)))
     if getattr(args, "json", None):
         check_output_file(args.json, "--json")
     if getattr(args, "figures", None):

@@ -223,6 +223,7 @@ def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=
     from .paths import check_output_file
 
     out = check_output_file(out, "--out")
+    save_times, ck_times, ck_file, vtk_stem = _run_files(cfg, out)
     setup = cfg.setup
     grid = setup.grid()
     scheme = Scheme.preset(setup.scheme, positivity=bool(setup.positivity))
@@ -230,7 +231,6 @@ def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=
                        vacuum_density=1e-4 * setup.bottom_density, top_tolerance=1e-3 * setup.bottom_density)
     motion = setup.model().motion
     floor = lambda t: motion.state(t)[0]  # noqa: E731
-    save_times, ck_times, ck_file, vtk_stem = _run_files(cfg, out)
     t0, steps0, resumed, wall0 = 0.0, 0, None, 0.0
     u0, rho0 = setup.initial_state(grid)
     attrs = {"config": cfg.text, "scheme": scheme.name, "dimension": grid.dim}
@@ -275,6 +275,7 @@ def _run_packing_bed(cfg: LayerConfig, out, *, resume=False, progress=None, log=
     from .paths import check_output_file
 
     out = check_output_file(out, "--out")
+    save_times, ck_times, ck_file, vtk_stem = _run_files(cfg, out)
     log = log or (lambda msg: None)
     setup = cfg.setup
     tracers = None if cfg.tracers is None else np.array(cfg.tracers, dtype=float)
@@ -283,7 +284,6 @@ def _run_packing_bed(cfg: LayerConfig, out, *, resume=False, progress=None, log=
     grid = disc.grid
     motion = disc.motion
     floor = lambda t: motion.state(t)[0]  # noqa: E731
-    save_times, ck_times, ck_file, vtk_stem = _run_files(cfg, out)
     t0, steps0, resumed, wall0 = 0.0, 0, None, 0.0
     attrs = {"config": cfg.text, "scheme": f"packing_{disc.name}", "kernel": "packing", "dimension": grid.dim,
              "scenario": f"packing_bed_{grid.dim}d"}
@@ -346,6 +346,9 @@ def _run_files(cfg: LayerConfig, out):
     from ..numerics.solver import save_schedule
     save_times = save_schedule(0.0, cfg.setup.t_end, cfg.setup.save_every)
     vtk_stem = os.path.splitext(out)[0] + "_vtk" if cfg.vtk else None
+    if vtk_stem is not None:                # the VTK folder, checked before the run (created by _vtk_writer)
+        from .paths import check_output_dir
+        check_output_dir(vtk_stem, "output.vtk (its folder, --out's name with _vtk)")
     return save_times, _checkpoint_times(save_times, cfg.checkpoint_every), checkpoint_path(out), vtk_stem
 
 
@@ -402,8 +405,9 @@ def _vtk_writer(vtk_stem, grid, keep_before):
     files before ``keep_before`` [s]."""
     if not vtk_stem:
         return None
+    from .paths import check_output_dir
     from .vtk import VTKWriter
-    os.makedirs(vtk_stem, exist_ok=True)
+    check_output_dir(vtk_stem, "output.vtk (its folder, --out's name with _vtk)", create=True)
     w = VTKWriter(grid, os.path.join(vtk_stem, "layer"))
     if keep_before is not None:
         w.keep_before(keep_before)

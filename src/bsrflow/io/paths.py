@@ -29,7 +29,7 @@ import tempfile
 
 from .config import ConfigError
 
-__all__ = ["OutputPathError", "check_output_file", "check_output_dir", "FILE_RULE", "DIR_RULE"]
+__all__ = ["OutputPathError", "check_output_file", "check_output_dir", "check_distinct", "FILE_RULE", "DIR_RULE"]
 
 FILE_RULE = "its folder must exist"
 """For ``--help`` texts of output-file options."""
@@ -118,3 +118,18 @@ def check_output_dir(path, option: str, create: bool = False) -> str:
         except OSError as exc:
             raise OutputPathError(option, f"cannot create the directory {path} ({_why(exc)})") from None
     return path
+
+
+def check_distinct(*named) -> None:
+    """Refuse two options that name the same place: ``named`` are (option, path or None) pairs,
+    the outputs (and inputs that an output must not overwrite) of one command.  Checked before any
+    path is created, so that ``--json x --figures x`` is refused up front rather than failing
+    when the second is written."""
+    seen: dict[str, str] = {}
+    for option, path in named:
+        if path is None or not os.fspath(path):
+            continue
+        key = os.path.realpath(os.path.abspath(os.fspath(path)))
+        if key in seen:
+            raise OutputPathError(option, f"{os.fspath(path)} is also given as {seen[key]}; give different paths")
+        seen[key] = option

@@ -32,7 +32,7 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 
 from ..numerics.grid import Grid1D
-from ..numerics.solver import Scheme, Simulation, save_schedule
+from ..numerics.solver import Scheme, Simulation, SimulationError, save_schedule
 from .kernels import walton_braun_from_contact
 from .model import BSRModel
 from .motion import HalfSineTaps
@@ -447,8 +447,13 @@ def run_bsr_column(setup: ColumnSetup, scheme: Scheme | str | None = None, obser
     sim = setup.simulation(scheme)
     grid = sim.grid
     rho0 = initial_density(setup, grid.x)
-    res = sim.run(np.zeros(grid.n_cells), rho0, setup.t_end, save_every=setup.save_every,
-                  tracers=setup.sphere_centres(), observers=observers, progress=progress)
+    try:
+        res = sim.run(np.zeros(grid.n_cells), rho0, setup.t_end, save_every=setup.save_every,
+                      tracers=setup.sphere_centres(), observers=observers, progress=progress)
+    except SimulationError as exc:      # the snapshots before the stop, as a ColumnRun, for the caller
+        if exc.result is not None and len(exc.result.t):
+            exc.column_run = column_run_from_result(setup, grid, exc.result)
+        raise
     return column_run_from_result(setup, grid, res)
 
 

@@ -1,5 +1,5 @@
-"""``bsrflow plot FILE.nc [--out DIR]``: the standard figures of a column run from its netCDF
-output.
+"""``bsrflow plot FILE.nc [--out DIR]``: the standard figures of a column run (or of a 2-D /
+3-D layer run) from its netCDF output.
 
 Expected schema (the package's output files): dimensions ``time``, ``x``, ``tracer``;
 coordinates ``time`` [s] and ``x`` [m] (cell centres, floor frame); variables ``rho(time, x)``
@@ -14,6 +14,10 @@ Figures (PNG, written to DIR, default the file's directory, named ``<stem>_<figu
 * ``tracers``: tracer trajectories with the floor and the mass centre;
 * ``top_centre``: top and mass-centre heights against time;
 * ``kinetic_energy``: kinetic energy against time.
+
+A layer file (``rho(time, x, [y,] z)``, ``tracer_z``; :mod:`bsrflow.io.layer_runner`) gives the
+same figures with the density averaged over the horizontal axes (its fields in 3-D are for
+ParaView, from the VTK files).
 
 Heights are in units of d when the file has a ``diameter`` attribute, else in metres.  A file
 still being written (or cut short) is read as far as it goes: snapshots whose time is missing
@@ -33,7 +37,7 @@ import numpy as np
 
 from ..io.paths import DIR_RULE, check_output_dir
 
-__all__ = ["plot_file", "add_parser", "load_output"]
+__all__ = ["plot_file", "add_parser", "load_output", "vertical_density"]
 
 _NC_FILL = 9.0e36          # netCDF default fill values are 9.97e36 (float and double)
 
@@ -88,6 +92,21 @@ def _label(ds, name, default_long, default_units, scale_units=None):
     long_name = (v.attrs.get("long_name") if v is not None else None) or default_long
     units = scale_units or ((v.attrs.get("units") if v is not None else None) or default_units)
     return f"{long_name} [{units}]" if units else long_name
+
+
+def vertical_density(ds, rho):
+    """(name of the vertical coordinate, ρ on (time, vertical), whether it is an average): a
+    column's ρ(time, x) (or ρ(time, z)) as it is; a layer's ρ(time, x, [y,] z) averaged over the
+    horizontal axes (NaN values left out; a column of NaN stays NaN).  ``rho`` is the
+    variable's values (snapshots selected, fill values as NaN) or None."""
+    if rho is None or "rho" not in ds.variables or ds["rho"].ndim < 2:
+        return "x", rho, False
+    if rho.ndim <= 2:
+        return ds["rho"].dims[-1], rho, False
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return ds["rho"].dims[-1], np.nanmean(rho, axis=tuple(range(1, rho.ndim - 1))), True
 
 
 def plot_file(path, out: str | None = None, log=print) -> list[str]:
@@ -154,14 +173,20 @@ def plot_file(path, out: str | None = None, log=print) -> list[str]:
     floor_filled = np.where(np.isfinite(floor), floor, 0.0)
     marker = "o" if t.size == 1 else None
 
-    # 1. space-time density map
-    rho = series("rho")
-    if rho is None or "x" not in ds.variables:
-        note("no rho(time, x) (or x) in the file: density figure skipped")
+    # 1. space-time density map (a 2-D / 3-D layer: the density averaged over its horizontal axes)
+    vertical, rho, averaged = vertical_density(ds, series("rho"))
+    if vertical == "z":
+        hlabel = hlabel.replace(", y", ", z")
+    if rho is None or vertical not in ds.variables:
+        note(f"no rho(time, {vertical}) (or {vertical}) in the file: density figure skipped")
     else:
-        x = _clean(ds["x"].values)
+        x = _clean(ds[vertical].values)
         fig, ax = plt.subplots(figsize=(9, 5.5))
+        units = ds["rho"].attrs.get("units", "kg m-1")
         rlabel = _label(ds, "rho", "line density ρ", "kg m-1")
+        if averaged:
+            axes = " and ".join(ds["rho"].dims[1:-1])
+            rlabel = f"density averaged over {axes} [{units}]"
         finite = np.isfinite(rho)
         top_occ = None
         if finite.any():
@@ -185,7 +210,7 @@ def plot_file(path, out: str | None = None, log=print) -> list[str]:
             ax.plot(t, floor_filled / hscale, color="w", lw=1, label="floor")
             ax.set_xlabel("time t [s]")
             ax.set_ylabel(hlabel)
-            ax.set_title("density, space-time (lab frame)")
+            ax.set_title("density, space-time (lab frame)" + (", horizontal average" if averaged else ""))
         if top_occ is not None:
             lo = min(0.0, np.nanmin(floor_filled)) / hscale
             ax.set_ylim(lo, 1.15 * top_occ / hscale + (0.5 if d else 0.0))
@@ -195,9 +220,11 @@ def plot_file(path, out: str | None = None, log=print) -> list[str]:
 
     # 2. tracer trajectories
     tracers = series("tracer_height")
+    if tracers is None:
+        tracers = series("tracer_z")                     # a 2-D / 3-D layer's tracers (lab-frame height)
     centre = series("mass_centre")
     if tracers is None:
-        note("no tracer_height(time, tracer) in the file: tracer figure skipped")
+        note("no tracer_height(time, tracer) or tracer_z in the file: tracer figure skipped")
     else:
         fig, ax = plt.subplots(figsize=(9, 5.5))
         ax.plot(t, tracers / hscale, color="C0", lw=0.8, marker=marker)
@@ -259,7 +286,7 @@ def plot_file(path, out: str | None = None, log=print) -> list[str]:
 def add_parser(sub):
     helptext = "draw the standard figures (density map, tracers, top/mass centre, kinetic energy) of an output file"
     p = sub.add_parser("plot", help=helptext, description=helptext)
-    p.add_argument("file", metavar="FILE.nc", help="netCDF output of a column run")
+    p.add_argument("file", metavar="FILE.nc", help="netCDF output of a column or layer run")
     p.add_argument("--out", metavar="DIR", default=None,
                    help=f"directory for the PNG files (default: the file's; {DIR_RULE})")
     p.set_defaults(func=_main)

@@ -60,7 +60,7 @@ RESULTS = {
     "mass_centre_max_over_d": ("1", "maximum mass-centre height after the first tap over d", float),
     "final_mass": ("kg", "mass at the last saved time", float),
     "mass_drift": ("1", "largest relative mass change", float),
-    "t_final": ("s", "last saved time", float),
+    "t_final": ("s", "last saved time (a stopped case: the time of the stop)", float),
     "steps": ("1", "time steps taken", int),
     "wall_time": ("s", "wall-clock time of the case (including compilation on a fresh worker)", float),
 }
@@ -151,7 +151,9 @@ def run_case(overrides: dict, source: SetupSource | None = None) -> dict:
 
     Never raises for a failing case: the failure is the result.  Maxima are taken over the saved
     times t >= tap_start (the whole run if it ends before the first tap), as ``bsrflow compare``
-    does for the top height.
+    does for the top height.  A case that stops early ("stopped") has the results of the
+    snapshots saved before the stop and the steps taken up to it (NaN only where there is no
+    snapshot at all, and for "invalid" and "failed" cases).
     """
     from ..numerics.solver import SimulationError
     from ..physics.column import run_bsr_column
@@ -165,12 +167,24 @@ def run_case(overrides: dict, source: SetupSource | None = None) -> dict:
     try:
         run = run_bsr_column(setup, scheme=scheme)
     except SimulationError as exc:
-        r = _empty_result("stopped", _one_line(exc), time.perf_counter() - start)
+        partial = getattr(exc, "column_run", None)
+        if partial is not None:         # the results of the snapshots saved before the stop
+            r = _column_results(setup, partial, start)
+            r.update(status="stopped", error=_one_line(exc))
+        else:
+            r = _empty_result("stopped", _one_line(exc), time.perf_counter() - start)
         if exc.time is not None and np.isfinite(exc.time):
             r["t_final"] = float(exc.time)
+        if exc.result is not None:
+            r["steps"] = int(exc.result.steps)
         return r
     except Exception as exc:  # noqa: BLE001 - recorded, the sweep goes on
         return _empty_result("failed", f"{type(exc).__name__}: {_one_line(exc)}", time.perf_counter() - start)
+    return _column_results(setup, run, start)
+
+
+def _column_results(setup, run, start) -> dict:
+    """The scalar results (:data:`RESULTS`) of a column run (whole or up to a stop)."""
     d = setup.diameter
     after = run.t >= setup.tap_start - 1e-12
     if not after.any():
@@ -436,7 +450,8 @@ def add_parser(sub):
                    help="fix a parameter for every case (repeatable)")
     p.add_argument("--scheduler", metavar="ADDRESS", default=None,
                    help="address of a running dask scheduler (default: start a LocalCluster)")
-    p.add_argument("--workers", type=int, default=2, help="LocalCluster worker processes (default 2)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="LocalCluster worker processes (default 2; at most 4 per CPU; not with --scheduler)")
     p.add_argument("--out", default="sweep.nc", metavar="FILE.nc",
                    help="netCDF output (default sweep.nc; its folder must exist)")
     p.add_argument("--figure", default=None, metavar="F.png",
@@ -444,12 +459,38 @@ def add_parser(sub):
     p.set_defaults(func=_main)
 
 
-def _main(args) -> int:
-    from ..io.paths import check_output_file
+def _check_figure_format(path) -> None:
+    """``--figure``'s suffix is an image format matplotlib writes (checked before the sweep)."""
+    from matplotlib.figure import Figure
 
+    formats = sorted(Figure().canvas.get_supported_filetypes())
+    ext = os.path.splitext(path)[1].lower().lstrip(".")
+    if ext not in formats:
+        raise ValueError(f"--figure {path}: the suffix {('.' + ext) if ext else '(none)'} is not an image "
+                         f"format (valid: {', '.join('.' + f for f in formats)})")
+
+
+def _main(args) -> int:
+    from ..io.paths import check_distinct, check_output_file
+
+    check_distinct(("CONFIG", args.config), ("--out", args.out), ("--figure", args.figure))
     check_output_file(args.out, "--out")
     if args.figure:
         check_output_file(args.figure, "--figure")
+        _check_figure_format(args.figure)
+    if args.scheduler and args.workers is not None:
+        raise ValueError("--workers sets the size of the LocalCluster; with --scheduler the scheduler's own "
+                         "workers run the cases: leave --workers out")
+    workers = 2 if args.workers is None else args.workers
+    max_workers = 4 * (os.cpu_count() or 1)
+    if not 1 <= workers <= max_workers:
+        raise ValueError(f"--workers {workers} is outside the valid range [1, {max_workers}] (4 per CPU of this machine)")
+    for opt, items in (("--param", args.param), ("--set", args.set)):
+        for item in items:
+            name = item.partition("=")[0].strip()
+            if name.split(".")[-1] == "checkpoint_every":
+                raise ValueError(f"{opt} {name}: sweep cases write no checkpoints (the option of `bsrflow run`); "
+                                 "leave it out")
     params = parse_params(args.param)
     fixed = {}
     for item in args.set:
@@ -460,8 +501,6 @@ def _main(args) -> int:
         if canonical_name(key) in {canonical_name(n) for n in params}:
             raise ValueError(f"--set {key}: the parameter is also swept with --param")
         fixed[key] = coerce_value(key, parse_value(value))
-    if args.workers < 1:
-        raise ValueError(f"--workers {args.workers} is outside the valid range: integers >= 1")
     source = SetupSource.load(args.config)
     if fixed:
         source = source.with_fixed(fixed)
@@ -469,7 +508,7 @@ def _main(args) -> int:
     check_cases(params, source)                        # every case, before any cluster starts
     if args.scheduler:
         check_scheduler(args.scheduler)
-    where = args.scheduler or f"a LocalCluster of {args.workers} worker processes"
+    where = args.scheduler or f"a LocalCluster of {workers} worker processes"
     try:
         model = f" of the {continuum_label(source.column_setup({}))}"
     except Exception:  # noqa: BLE001 - the cases were checked; only the wording
@@ -477,7 +516,7 @@ def _main(args) -> int:
     print(f"bsrflow sweep: {n} case(s){model} over {', '.join(params)} on {where}"
           + (f"; config {args.config} ({'bsrflow.io.config' if source.uses_config_module else 'fallback reader'})"
              if args.config else ""))
-    ds = run_sweep(params, source, scheduler=args.scheduler, n_workers=args.workers)
+    ds = run_sweep(params, source, scheduler=args.scheduler, n_workers=workers)
     write_dataset(ds, args.out)
     print(f"wrote {args.out}")
     if args.figure:
