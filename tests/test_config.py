@@ -257,6 +257,8 @@ def test_at_least_30_distinct_invalid_configs():
     (["--set", "bogus=1"], "bogus"),
     (["--set", "n_spheres=2.5"], "column.n_spheres"),
     (["--set", "stepper=heun", "--scheme", "accurate"], "numerics.stepper"),
+    (["--set", "t_end=0.05", "--set", "run.t_end=0.02"], "--set"),            # given twice
+    (["--scheme", "seed", "--set", "numerics.scheme=accurate"], "--scheme"),  # contradictory
 ])
 def test_invalid_overrides_on_the_command_line(tmp_path, capsys, argv, field):
     path = _write(tmp_path, "ok", TINY)

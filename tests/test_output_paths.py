@@ -203,6 +203,7 @@ def test_two_options_naming_one_place_are_refused_before_any_work(tmp_path, caps
     (["--workers", "100000"], "--workers 100000 is outside the valid range"),
     (["--param", "checkpoint_every=0.01,0.02"], "--param checkpoint_every"),
     (["--set", "run.checkpoint_every=0.01"], "--set run.checkpoint_every"),
+    (["--set", "a_over_d=0.5", "--set", "tap.a_over_d=0.7"], "given twice"),
 ])
 def test_sweep_refuses_options_without_effect_or_a_bad_figure_up_front(tmp_path, capsys, no_work, extra, words):
     cfg = tmp_path / "c.toml"

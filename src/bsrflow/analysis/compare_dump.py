@@ -278,15 +278,23 @@ def _main(args) -> int:
     if args.types:
         dump = dump.select(args.types)
     check_dump(dump, args.axis, args.time_offset, what_axis="--axis")
-    overrides = {}
+    from ..tools.setup_source import canonical_name
+    overrides, set_as = {}, {}
     for item in args.set:
         key, sep, value = item.partition("=")
         if not sep or not key.strip() or not value.strip():
             raise ValueError(f"--set {item!r} is not NAME=VALUE")
-        overrides[key.strip()] = parse_value(value)
+        key = key.strip()
+        name = canonical_name(key)
+        if name in set_as:
+            raise ValueError(f"--set {key}: the parameter is given twice (also as --set {set_as[name]}); give it once")
+        set_as[name] = key
+        overrides[key] = parse_value(value)
     for opt, fld, _typ, _h in _SETUP_OPTIONS:
         v = getattr(args, fld)
         if v is not None:
+            if canonical_name(fld) in set_as:
+                raise ValueError(f"{opt} {v} contradicts --set {set_as[canonical_name(fld)]}; give one of the two")
             overrides[fld] = v
     if args.kernel is not None:
         if overrides.get("kernel", args.kernel) != args.kernel:
@@ -296,18 +304,21 @@ def _main(args) -> int:
         overrides["t_end"] = float(dump.t[-1] - args.time_offset)
     source = SetupSource.load(args.config)
     source.check_names(overrides)
-    from ..tools.setup_source import canonical_name
-    seed_given = [opt for opt, fld, _t, _h in _SETUP_OPTIONS if fld in ("m0", "kernel_dissipation")
-                  and getattr(args, fld) is not None]
+    seed_only = ("m0", "kernel_dissipation", "scheme", "stepper", "rtol", "atol")
+    seed_given = [opt for opt, fld, _t, _h in _SETUP_OPTIONS if fld in seed_only and getattr(args, fld) is not None]
     seed_given += [f"--set {k}" for k in (item.partition("=")[0].strip() for item in args.set)
-                   if canonical_name(k) in ("m0", "kernel_dissipation")]
+                   if canonical_name(k) in seed_only]
+    refusal = (f"{seed_given[0]} is an option of the seed kernel only; the packing continuum has no m0, eps or "
+               "scheme options: leave it out") if seed_given else ""
     try:
         setup, scheme = source.setup_and_scheme(overrides)
-    except ValueError as exc:    # the config refuses the seed's constants with the packing kernel: name the option
-        if seed_given and str(exc).startswith(("column.m0:", "column.kernel_dissipation:")):
-            raise ValueError(f"{seed_given[0]} is a constant of the seed kernel only; the packing continuum has "
-                             "no m0 or eps: leave it out") from None
+    except ValueError as exc:    # the config refuses the seed's options with the packing kernel: name the option
+        if seed_given and str(exc).startswith(("column.m0:", "column.kernel_dissipation:", "numerics.scheme:",
+                                               "numerics.stepper:", "numerics.rtol:", "numerics.atol:")):
+            raise ValueError(refusal) from None
         raise
+    if setup.kernel_name == "packing" and seed_given:        # e.g. --scheme seed, which the config allows
+        raise ValueError(refusal)
     t_rel = dump.t - args.time_offset
     after = (t_rel >= setup.tap_start - 1e-12) & (t_rel <= setup.t_end + 1e-9 * max(1.0, setup.t_end))
     if after.any():

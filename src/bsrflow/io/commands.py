@@ -146,8 +146,16 @@ def _run(args) -> int:
     if is_layer_config(args.config):
         return _run_layer(args)
     config = load_config(args.config)
-    overrides = dict(parse_override(s) for s in args.set)
+    overrides = {}
+    for item in args.set:
+        key, value = parse_override(item)
+        if key in overrides:
+            raise ConfigError("--set", f"{key} is given twice ({overrides[key]!r} and {value!r}); give it once")
+        overrides[key] = value
     if args.scheme:
+        if overrides.get("numerics.scheme", args.scheme) != args.scheme:
+            raise ConfigError("--scheme", f"{args.scheme} contradicts --set numerics.scheme="
+                              f"{overrides['numerics.scheme']}; give one of the two")
         overrides["numerics.scheme"] = args.scheme
     if overrides:
         config = config.with_overrides(overrides)

@@ -485,9 +485,14 @@ def _main(args) -> int:
     max_workers = 4 * (os.cpu_count() or 1)
     if not 1 <= workers <= max_workers:
         raise ValueError(f"--workers {workers} is outside the valid range [1, {max_workers}] (4 per CPU of this machine)")
+    seen_set = set()
     for opt, items in (("--param", args.param), ("--set", args.set)):
         for item in items:
             name = item.partition("=")[0].strip()
+            if opt == "--set":
+                if canonical_name(name) in seen_set:
+                    raise ValueError(f"--set {name}: the parameter is given twice; give it once")
+                seen_set.add(canonical_name(name))
             if name.split(".")[-1] == "checkpoint_every":
                 raise ValueError(f"{opt} {name}: sweep cases write no checkpoints (the option of `bsrflow run`); "
                                  "leave it out")
@@ -500,6 +505,7 @@ def _main(args) -> int:
             raise ValueError(f"--set {item!r} is not NAME=VALUE")
         if canonical_name(key) in {canonical_name(n) for n in params}:
             raise ValueError(f"--set {key}: the parameter is also swept with --param")
+
         fixed[key] = coerce_value(key, parse_value(value))
     source = SetupSource.load(args.config)
     if fixed:
