@@ -305,3 +305,13 @@ def test_config_pickles_for_dask_workers():
     back = pickle.loads(pickle.dumps(cfg))
     assert back.to_dict() == cfg.to_dict()
     assert back.tap.a_over_d == 0.5
+
+
+def test_a_config_that_is_not_utf8_is_named_on_the_command_line(tmp_path, capsys):
+    """The check for a [layer] table read the file first and failed with the decoder's message,
+    naming no file; now load_config's line, naming the file, is what the user sees."""
+    path = tmp_path / "u.toml"
+    path.write_bytes(b"[run]\nt_end = 0.05\n# \xff\n")
+    assert main(["run", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"error: {path}: invalid TOML: the file is not UTF-8 text" in err[0], err

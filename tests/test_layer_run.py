@@ -65,6 +65,11 @@ def test_layer_config_runs_into_netcdf_and_vtk(tmp_path, run_layer_file):
     ("tracers = 5\n[layer]\n", "tracers"),
     ("[layer]\nkind = 'packing_bed'\nt_end = 0.01\nsave_every = 0.02\n", "layer.save_every"),
     ("[layer]\nkind = 'packing_bed'\nt_end = 0.01\n[output]\ncheckpoint_every = 5.0\n", "output.checkpoint_every"),
+    # a second audit: the message named the internal parameter (period, hyperdiffusion), or none
+    ("[layer]\nn_taps = 3\ntap_period = -1.0\n", "layer.tap_period"),
+    ("[layer]\nn_taps = 3\ntap_period = 0.001\n", "layer.tap_period"),
+    ("[layer]\nscheme = 'accurate'\n", "layer.scheme"),
+    ("[layer]\nkind = 'packing_bed'\nrestitution = 0.001\n", "layer.restitution"),
 ])
 def test_bad_layer_configs_exit_2_with_one_line(text, field, tmp_path, capsys):
     cfg = tmp_path / "bad.toml"

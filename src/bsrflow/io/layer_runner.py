@@ -56,8 +56,8 @@ def is_layer_config(path) -> bool:
     try:
         with open(path, "rb") as fh:
             return "layer" in tomllib.load(fh)
-    except (OSError, tomllib.TOMLDecodeError):
-        return False
+    except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError):
+        return False        # load_config then names the file and the problem
 
 
 @dataclass

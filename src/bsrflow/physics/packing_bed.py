@@ -48,7 +48,7 @@ class PackingBed:
 
     dim : 2 (x, z) or 3 (x, y, z); box_width : horizontal side L [m] (periodic);
     bed_height : H [m] of the bed at close packing (rounded to whole cells);
-    diameter d [m]; density ρ_s [kg/m³]; stiffness K [N/m]; restitution e in (0, 1];
+    diameter d [m]; density ρ_s [kg/m³]; stiffness K [N/m]; restitution e in [0.01, 1] (as the column's);
     phi_c : close-packing solid fraction in (0, 0.75); coordination Z > 0 (contacts per sphere);
     cells_per_diameter : d/Δx, an integer >= 1; frequency f [Hz]; gamma Γ = aω²/g >= 0;
     settle_time t_s [s] before the floor moves; t_end, save_every [s];
@@ -87,8 +87,8 @@ class PackingBed:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} = {v!r} is outside the valid range (0, inf)")
-        if not (0.0 < self.restitution <= 1.0):
-            raise ValueError(f"restitution = {self.restitution!r} is outside the valid range (0, 1]")
+        if not (0.01 <= self.restitution <= 1.0):      # unloading K/e²: e → 0 makes the step vanish
+            raise ValueError(f"restitution = {self.restitution!r} is outside the valid range [0.01, 1]")
         if not (0.0 < self.phi_c < 0.75):
             raise ValueError(f"phi_c = {self.phi_c!r} is outside the valid range (0, 0.75)")
         c = self.cells_per_diameter

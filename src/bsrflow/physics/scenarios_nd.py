@@ -191,6 +191,9 @@ class LayerSetup:
             raise ValueError(f"gravity = {self.gravity!r} is outside the valid range (0, inf) m/s^2")
         if self.sides not in ("wall", "periodic"):
             raise ValueError(f"sides = {self.sides!r} is not one of ('wall', 'periodic')")
+        if self.scheme != "seed":
+            raise ValueError(f"scheme = {self.scheme!r} is not valid for a 2-D / 3-D layer (valid: 'seed'; the n-D "
+                             "solver refuses the 'accurate' preset's dissipation options)")
         if not (0.0 <= self.surface_perturbation <= 0.5):
             raise ValueError(f"surface_perturbation = {self.surface_perturbation!r} is outside the valid "
                              "range [0, 0.5]")
@@ -286,6 +289,10 @@ class TappedLayer(LayerSetup):
             raise ValueError(f"frequency = {self.frequency!r} is outside the valid range (0, inf) Hz")
         if int(self.n_taps) != self.n_taps or self.n_taps < 1:
             raise ValueError(f"n_taps = {self.n_taps!r} is outside the valid range: integers >= 1")
+        dur = 0.5 / self.frequency
+        if self.n_taps > 1 and not (np.isfinite(self.tap_period) and self.tap_period >= dur):
+            raise ValueError(f"tap_period = {self.tap_period!r} is outside the valid range [{dur:g}, inf) s "
+                             f"(at least one tap, 1/(2f) = {dur:g} s)")
 
     def floor_speed(self) -> float:
         return self.amplitude * 2 * math.pi * self.frequency
