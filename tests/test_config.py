@@ -112,6 +112,8 @@ def test_packing_config_refuses_the_seed_kernels_constants(tmp_path, capsys):
     assert main(["run", str(seed), "--out", str(tmp_path / "x.nc"), "--set", "model.kernel=packing"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "column.m0" in err[0] and not (tmp_path / "x.nc").exists()
+    with pytest.raises(ConfigError, match=r"^model\.stiffness_mach: .*give one of the two"):
+        Config.from_dict({"model": {"kernel": "packing", "stiffness_mach": 0.01, "stiffness_factor": 1.0}})
     switched = load_config(seed).with_overrides({"kernel": "packing", "m0": None, "eps": None})
     assert switched == cfg
     # an output written before the refusal (a packing config with m0 in its TOML) still reads back

@@ -493,7 +493,8 @@ class Config:
                                       'the packing continuum (only K, e, d, density, N and g do); with '
                                       'model.kernel = "packing" remove it (`bsrflow init --kernel packing` '
                                       "writes a packing config)", v[key])
-            if v["model.stiffness_mach"] > 0.0 and v["model.stiffness_factor"] != 1.0:
+            if v["model.stiffness_mach"] > 0.0 and (v["model.stiffness_factor"] != 1.0
+                                                    or "model.stiffness_factor" in self._given):
                 raise ConfigError("model.stiffness_mach", f"{v['model.stiffness_mach']!r} together with "
                                   f"model.stiffness_factor = {v['model.stiffness_factor']!r}: give one of the two",
                                   v["model.stiffness_mach"])

@@ -516,7 +516,10 @@ def _main(args) -> int:
         check_scheduler(args.scheduler)
     where = args.scheduler or f"a LocalCluster of {workers} worker processes"
     try:
-        model = f" of the {continuum_label(source.column_setup({}))}"
+        if {canonical_name(n) for n in params} & {"kernel", "kernel_name", "formulation", "range_over_d"}:
+            model = " (the continuum itself is swept)"
+        else:
+            model = f" of the {continuum_label(source.column_setup({}))}"
     except Exception:  # noqa: BLE001 - the cases were checked; only the wording
         model = ""
     print(f"bsrflow sweep: {n} case(s){model} over {', '.join(params)} on {where}"
