@@ -438,6 +438,7 @@ def _sigint_after_six_snapshots(tmp_path, capsys, monkeypatch, ckpt):
         assert not os.path.exists(str(out) + ".ckpt")
 
 
+@pytest.mark.slow       # 28 s; the tiny config's SIGKILL-and-resume test covers the same path by default
 def test_default_config_checkpoints_and_resumes_after_sigkill_bit_for_bit(tmp_path, capsys):
     """The config `bsrflow init` writes, unchanged: checkpoints are on by default (every 0.1 s,
     on snapshot times, so they change no step) and a SIGKILLed run resumes to the uninterrupted
