@@ -505,7 +505,6 @@ def _main(args) -> int:
             raise ValueError(f"--set {item!r} is not NAME=VALUE")
         if canonical_name(key) in {canonical_name(n) for n in params}:
             raise ValueError(f"--set {key}: the parameter is also swept with --param")
-
         fixed[key] = coerce_value(key, parse_value(value))
     source = SetupSource.load(args.config)
     if fixed:
