@@ -8,7 +8,7 @@ import pytest
 import xarray as xr
 
 from bsrflow.numerics.solver import SimulationError
-from bsrflow.tools.setup_source import SetupSource
+from bsrflow.tools.setup_source import SetupSource, check_given_once
 from bsrflow.tools.sweep import make_cases, parse_param, parse_params, run_case, sweep_figure, to_dataset
 
 # tiny cases: 3 spheres, 4 points per diameter, 0.1 s with a tap at 0.02 s (about 0.02 s each,
@@ -59,7 +59,7 @@ def test_malformed_specs(spec, match):
 def test_repeated_names():
     with pytest.raises(ValueError, match="given twice"):
         parse_params(["f=1,2", "f=3"])
-    with pytest.raises(ValueError, match=r"given twice \(as f\)"):
+    with pytest.raises(ValueError, match=r"^--param frequency=3 is given twice \(also as f=1,2\); give it once$"):
         parse_params(["f=1,2", "frequency=3"])
     with pytest.raises(ValueError, match="nothing to sweep"):
         parse_params([])
@@ -96,6 +96,35 @@ def test_fallback_config_reader(tmp_path):
     bad.write_text("n_spheres = \n")
     with pytest.raises(ValueError, match="not valid TOML"):
         SetupSource.load(bad, use_config_module=False)
+    bad.write_text("f = 10\n[tap]\nfrequency = 12\n")       # the same parameter in two tables
+    with pytest.raises(ValueError, match=r"bad.toml: key tap.frequency is given twice \(also as f\); give it once$"):
+        SetupSource.load(bad, use_config_module=False)
+
+
+def test_check_given_once():
+    """One parameter under two names (aliases, table prefixes, =VALUE) is refused with one line
+    naming the option and both spellings; distinct parameters pass and are returned by key."""
+    given = [("--set", "tap.f=5"), ("--set", "ppd=4"), ("--param", "a_over_d=1,2")]
+    assert check_given_once(given) == {"frequency": ("--set", "tap.f=5"), "points_per_diameter": ("--set", "ppd=4"),
+                                       "a_over_d": ("--param", "a_over_d=1,2")}
+    assert check_given_once([]) == {}
+    assert check_given_once(iter([("--set", "f=1")])) == {"frequency": ("--set", "f=1")}   # any iterable
+    cases = [
+        ([("--set", "numerics.cfl"), ("--set", "numerics.cfl")], "--set numerics.cfl is given twice; give it once"),
+        ([("--set", "tap.f=5"), ("--set", "frequency=6")], "--set frequency=6 is given twice (also as tap.f=5); give it once"),
+        ([("--set", "f=5"), ("--set", "n=1"), ("--set", "f=5")], "--set f=5 is given twice; give it once"),
+        ([("--param", "f=1,2"), ("--set", "frequency=3")],
+         "--set frequency=3 is given twice (also as --param f=1,2); give it once"),
+        ([("--set", "N = 3"), ("--set", "n_spheres=4")], "--set n_spheres=4 is given twice (also as N = 3); give it once"),
+    ]
+    for given, message in cases:
+        with pytest.raises(ValueError) as err:
+            check_given_once(given)
+        assert str(err.value) == message
+    # the key decides what counts as the same parameter: with str, aliases are distinct
+    assert len(check_given_once([("--set", "f=1"), ("--set", "frequency=2")], key=str)) == 2
+    with pytest.raises(ValueError, match=r"^--set F=2 is given twice \(also as f=1\)"):
+        check_given_once([("--set", "f=1"), ("--set", "F=2")], key=str.lower)
 
 
 def test_run_case_records_failures(monkeypatch):

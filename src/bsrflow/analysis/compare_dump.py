@@ -278,23 +278,19 @@ def _main(args) -> int:
     if args.types:
         dump = dump.select(args.types)
     check_dump(dump, args.axis, args.time_offset, what_axis="--axis")
-    from ..tools.setup_source import canonical_name
-    overrides, set_as = {}, {}
+    from ..tools.setup_source import canonical_name, check_given_once
+    overrides = {}
     for item in args.set:
         key, sep, value = item.partition("=")
         if not sep or not key.strip() or not value.strip():
             raise ValueError(f"--set {item!r} is not NAME=VALUE")
-        key = key.strip()
-        name = canonical_name(key)
-        if name in set_as:
-            raise ValueError(f"--set {key}: the parameter is given twice (also as --set {set_as[name]}); give it once")
-        set_as[name] = key
-        overrides[key] = parse_value(value)
+        overrides[key.strip()] = parse_value(value)
+    set_as = check_given_once(("--set", item.strip()) for item in args.set)
     for opt, fld, _typ, _h in _SETUP_OPTIONS:
         v = getattr(args, fld)
         if v is not None:
             if canonical_name(fld) in set_as:
-                raise ValueError(f"{opt} {v} contradicts --set {set_as[canonical_name(fld)]}; give one of the two")
+                raise ValueError(f"{opt} {v} contradicts {' '.join(set_as[canonical_name(fld)])}; give one of the two")
             overrides[fld] = v
     if args.kernel is not None:
         if overrides.get("kernel", args.kernel) != args.kernel:

@@ -19,7 +19,7 @@ import signal
 import sys
 import threading
 
-from .config import ConfigError, default_config_text, load_config, parse_override
+from .config import Config, ConfigError, default_config_text, load_config, parse_override
 from .paths import check_output_file
 
 __all__ = ["add_parser"]
@@ -145,13 +145,12 @@ def _run(args) -> int:
 
     if is_layer_config(args.config):
         return _run_layer(args)
+    from ..tools.setup_source import check_given_once
+
     config = load_config(args.config)
-    overrides = {}
-    for item in args.set:
-        key, value = parse_override(item)
-        if key in overrides:
-            raise ConfigError("--set", f"{key} is given twice ({overrides[key]!r} and {value!r}); give it once")
-        overrides[key] = value
+    overrides = dict(parse_override(item) for item in args.set)
+    # option "--set:": the "<field>: <problem>" form of every `bsrflow run` error
+    check_given_once((("--set:", item.strip()) for item in args.set), key=Config.resolve_key)
     if args.scheme:
         if overrides.get("numerics.scheme", args.scheme) != args.scheme:
             raise ConfigError("--scheme", f"{args.scheme} contradicts --set numerics.scheme="

@@ -22,8 +22,8 @@ from dataclasses import dataclass, field
 
 from ..physics.column import ColumnSetup
 
-__all__ = ["ALIASES", "PARAMETER_INFO", "SetupSource", "canonical_name", "coerce_value", "parameter_info",
-           "parse_value", "config_module"]
+__all__ = ["ALIASES", "PARAMETER_INFO", "SetupSource", "canonical_name", "check_given_once", "coerce_value",
+           "parameter_info", "parse_value", "config_module"]
 
 ALIASES = {"f": "frequency", "d": "diameter", "N": "n_spheres", "ppd": "points_per_diameter",
            "eps": "kernel_dissipation", "e": "restitution", "K": "stiffness", "g": "gravity", "taps": "n_taps",
@@ -67,6 +67,27 @@ def canonical_name(name: str) -> str:
     (``tap.frequency``) dropped; unknown names are returned unchanged."""
     leaf = name.rsplit(".", 1)[-1]
     return ALIASES.get(leaf, leaf)
+
+
+def check_given_once(given, key=canonical_name) -> dict:
+    """Refuse a parameter given twice.
+
+    ``given``: (option, name) pairs in the order they were given, e.g. ``("--set", "tap.f=5")``;
+    a name may carry ``=VALUE``, and the parameter it names is ``key`` of the part before the
+    ``=``.  At the first parameter named a second time, raises ValueError with one line naming
+    the option and both spellings: ``--set frequency=6 is given twice (also as tap.f=5); give it
+    once`` (the earlier option is named too when it differs).  Returns {parameter: (option,
+    name)} of the pairs."""
+    seen = {}
+    for option, name in given:
+        param = key(name.partition("=")[0].strip())
+        if param in seen:
+            first_option, first_name = seen[param]
+            first = first_name if first_option == option else f"{first_option} {first_name}"
+            also = "" if (first_option, first_name) == (option, name) else f" (also as {first})"
+            raise ValueError(f"{option} {name} is given twice{also}; give it once")
+        seen[param] = (option, name)
+    return seen
 
 
 def parameter_info(name: str) -> tuple[str, str]:
@@ -128,20 +149,22 @@ def config_module():
     return mod if hasattr(mod, "load_config") else None
 
 
-def _flatten_toml(data: dict, path: str, prefix="") -> dict:
-    out = {}
+def _toml_items(data: dict, prefix=""):
+    """(dotted key, value) of every non-table value of a parsed TOML file, tables flattened."""
     for key, value in data.items():
         if isinstance(value, dict):
-            out.update(_flatten_toml(value, path, prefix + key + "."))
-            continue
-        name = canonical_name(key)
-        if name not in _FIELD_TYPES:
-            raise ValueError(f"{path}: key {prefix + key!r} is not a column parameter (known: "
-                             f"{', '.join(_FIELD_TYPES)})")
-        if name in out:
-            raise ValueError(f"{path}: column parameter {name!r} is given twice")
-        out[name] = coerce_value(name, value)
-    return out
+            yield from _toml_items(value, prefix + key + ".")
+        else:
+            yield prefix + key, value
+
+
+def _flatten_toml(data: dict, path: str) -> dict:
+    items = list(_toml_items(data))
+    for key, _value in items:
+        if canonical_name(key) not in _FIELD_TYPES:
+            raise ValueError(f"{path}: key {key!r} is not a column parameter (known: {', '.join(_FIELD_TYPES)})")
+    check_given_once((f"{path}: key", key) for key, _value in items)
+    return {canonical_name(key): coerce_value(canonical_name(key), value) for key, value in items}
 
 
 @dataclass

@@ -45,7 +45,7 @@ import time
 
 import numpy as np
 
-from .setup_source import SetupSource, canonical_name, coerce_value, parameter_info, parse_value
+from .setup_source import SetupSource, canonical_name, check_given_once, coerce_value, parameter_info, parse_value
 from ..physics.column import continuum_label
 
 __all__ = ["parse_param", "parse_params", "make_cases", "check_cases", "check_scheduler", "run_case", "run_sweep", "to_dataset", "sweep_figure",
@@ -116,13 +116,9 @@ def parse_param(spec: str) -> tuple[str, list]:
 
 def parse_params(specs) -> dict:
     """{name: values} from several specs, in order; ValueError for a repeated name."""
-    out = {}
-    for spec in specs:
-        name, values = parse_param(spec)
-        same = [n for n in out if canonical_name(n) == canonical_name(name)]
-        if same:
-            raise ValueError(f"--param {name} is given twice" + (f" (as {same[0]})" if same[0] != name else ""))
-        out[name] = values
+    parsed = [parse_param(spec) for spec in specs]
+    check_given_once(("--param", spec.strip()) for spec in specs)
+    out = dict(parsed)
     if not out:
         raise ValueError("no --param given: nothing to sweep")
     return out
@@ -485,14 +481,10 @@ def _main(args) -> int:
     max_workers = 4 * (os.cpu_count() or 1)
     if not 1 <= workers <= max_workers:
         raise ValueError(f"--workers {workers} is outside the valid range [1, {max_workers}] (4 per CPU of this machine)")
-    seen_set = set()
+    check_given_once(("--set", item.strip()) for item in args.set)
     for opt, items in (("--param", args.param), ("--set", args.set)):
         for item in items:
             name = item.partition("=")[0].strip()
-            if opt == "--set":
-                if canonical_name(name) in seen_set:
-                    raise ValueError(f"--set {name}: the parameter is given twice; give it once")
-                seen_set.add(canonical_name(name))
             if name.split(".")[-1] == "checkpoint_every":
                 raise ValueError(f"{opt} {name}: sweep cases write no checkpoints (the option of `bsrflow run`); "
                                  "leave it out")
