@@ -433,7 +433,9 @@ def test_compare_dump_runs_the_packing_continuum(tmp_path, small_setup, dem_resu
     assert result["bsr"] == expect["bsr"] and result["dem"] == pytest.approx(expect["dem"], rel=1e-12)
     assert result["mass_centre_rms_over_d"] == pytest.approx(expect["mass_centre_rms_over_d"], rel=1e-12)
     for extra, word in ((["--m0", "400"], "--m0"), (["--set", "eps=0.5"], "--set eps"),
-                        (["--set", "kernel=seed"], "contradicts"), (["--scheme", "seed"], "--scheme"),
+                        (["--set", "kernel=seed"], "contradicts"),
+                        (["--set", "model.kernel=seed"], "--kernel packing contradicts --set model.kernel=seed"),
+                        (["--scheme", "seed"], "--scheme"),
                         (["--scheme", "accurate"], "--scheme"), (["--set", "ppd=5", "--ppd", "7"], "--ppd 7 contradicts"),
                         (["--set", "ppd=5", "--set", "points_per_diameter=6"], "given twice")):
         assert main(common + ["--kernel", "packing"] + extra) == 2

@@ -293,8 +293,12 @@ def _main(args) -> int:
                 raise ValueError(f"{opt} {v} contradicts {' '.join(set_as[canonical_name(fld)])}; give one of the two")
             overrides[fld] = v
     if args.kernel is not None:
-        if overrides.get("kernel", args.kernel) != args.kernel:
-            raise ValueError(f"--kernel {args.kernel} contradicts --set kernel={overrides['kernel']}")
+        given = set_as.get(canonical_name("kernel"))          # --set kernel=... or model.kernel=...
+        if given is not None:
+            key = given[1].partition("=")[0].strip()
+            if overrides[key] != args.kernel:
+                raise ValueError(f"--kernel {args.kernel} contradicts --set {given[1]}; give one of the two")
+            del overrides[key]
         overrides["kernel"] = args.kernel
     if "t_end" not in overrides:
         overrides["t_end"] = float(dump.t[-1] - args.time_offset)
