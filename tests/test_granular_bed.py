@@ -32,6 +32,27 @@ def test_constitutive_relations_match_numpy():
     assert gb.kinetic_pressure(1e-6, 0.1, 1200.0, 0.9) == pytest.approx(1200.0 * 1e-6 * 0.1, rel=1e-5)
 
 
+@pytest.mark.parametrize("e_w", [0.5, 0.9, 1.0])
+def test_wall_loss_is_the_half_maxwellian_energy_lost_per_momentum_given(e_w):
+    """Grains arriving at the floor from a Maxwellian of temperature θ (normal velocity v > 0 with
+    weight v f(v)) lose (1 − e_w²) v²/2 each and give (1 + e_w) v: the energy lost per momentum
+    delivered is (1 − e_w) √(2θ/π), and the momentum delivered is the pressure p the floor
+    feels, so the loss is (1 − e_w) p √(2θ/π) (computed here by quadrature over v)."""
+    theta = 0.03
+    v = np.linspace(0.0, 40.0 * math.sqrt(theta), 400001)
+    f = np.exp(-v * v / (2.0 * theta))
+    energy = np.trapezoid(v * f * 0.5 * (1.0 - e_w * e_w) * v * v, v)
+    momentum = np.trapezoid(v * f * (1.0 + e_w) * v, v)
+    for phi in (1e-4, 0.3, 0.6):
+        p = gb.kinetic_pressure(phi, theta, 1200.0, 0.9)
+        assert gb.wall_loss(phi, theta, 1200.0, 0.9, e_w) == pytest.approx(p * energy / momentum, rel=1e-9, abs=0.0)
+    # the density at the wall, ρ_w = loss / ((1 − e_w²) θ √(θ/(2π))), is 2p/((1 + e_w)θ): for
+    # elastic spheres (1 + e_w)/2 · ρ_w is the contact theorem's ρ_s φ (1 + 4 φ g0)
+    phi, ew = 0.5, 0.5
+    rho_w = gb.wall_loss(phi, theta, 1200.0, 1.0, ew) / ((1.0 - ew * ew) * theta * math.sqrt(theta / (2.0 * math.pi)))
+    assert 0.5 * (1.0 + ew) * rho_w == pytest.approx(1200.0 * phi * (1.0 + 4.0 * phi * gb.g0_cs(phi)), rel=1e-12)
+
+
 def _state(rng, n=30, on_floor=True):
     s = BedSetup()
     mu = s.mass_per_area / n

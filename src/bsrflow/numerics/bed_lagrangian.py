@@ -82,7 +82,7 @@ def bed_step(zf, vf, th, hist, sig, pq, flux, dt, gl, mu, rho_s, d, e, phi_c, k1
         th[j] += -pq[j] * (vf[j + 1] - vf[j]) * dt / (1.5 * mu)
     flux[0] = 0.0
     if reaction > 0.0:
-        flux[0] = -wall_loss(mu / (rho_s * (zf[1] - zf[0])), th[0], rho_s, e)
+        flux[0] = -wall_loss(mu / (rho_s * (zf[1] - zf[0])), th[0], rho_s, e, e)
     flux[n] = 0.0
     for f in range(1, n):
         sa = zf[f] - zf[f - 1]
@@ -172,8 +172,8 @@ def bed_step_numpy(zf, vf, th, hist, dt, gl, mu, rho_s, d, e, phi_c, k1, k2):
     if reaction > 0.0:
         t0 = max(th[0], 0.0)
         p0 = phi_new[0]
-        g0 = constitutive_numpy(p0, 0.0, rho_s, d, e)["g0"]
-        flux[0] = -(1.0 - e * e) * rho_s * p0 * g0 * t0 * np.sqrt(t0 / (2.0 * np.pi))
+        p_kin = constitutive_numpy(p0, t0, rho_s, d, e)["p"]
+        flux[0] = -(1.0 - e) * p_kin * np.sqrt(2.0 * t0 / np.pi)
     phi_f = 0.5 * (phi_new[:-1] + phi_new[1:])
     t_f = 0.5 * (np.maximum(th[:-1], 0.0) + np.maximum(th[1:], 0.0))
     flux[1:n] = -constitutive_numpy(phi_f, t_f, rho_s, d, e)["kappa"] * np.diff(th) / (0.5 * (s[:-1] + s[1:]))

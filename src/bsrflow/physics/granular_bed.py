@@ -36,14 +36,16 @@ Floor (the vibrated plate, z = 0 in the floor frame; the floor moves as ϑ(t) = 
 impermeable while it pushes, and it cannot pull (Shattuck 2007's cavitation condition): the bed's
 bottom is held at z = 0 while the reaction is ≥ 0, free otherwise; the energy lost in the
 collisions with the floor (restitution e_w, the same law) is the flux
-(1 − e_w²) ρ_s φ g0 θ √(θ/(2π)) into the floor while in contact (the Maxwellian flux of normal
-kinetic energy onto a wall, ρθ√(θ/(2π)), with the contact value g0).  Top: free surface (σ = 0,
+(1 − e_w) p √(2θ/π) into the floor while in contact (the Maxwellian flux of normal kinetic
+energy onto a wall, ρ_w θ √(θ/(2π)), times the fraction 1 − e_w² lost, with the density at the
+wall ρ_w = 2p/((1 + e_w)θ) from the pressure p the collisions exert on it: :func:`wall_loss`).  Top: free surface (σ = 0,
 no heat flux).
 
 What is kept and dropped.  Kept: the contact law's K, e, d, ρ_s; the settled packing's φ_c and Z
 (measured on the DEM's own settled bed, reference/liggghts_bed: 0.636, and 5.31 sphere–sphere
 contacts per sphere; the floor contacts, which make it 5.39, do not stiffen the bulk), N and g.
-Dropped: friction and rotation, anisotropy of θ, the Knudsen layer at the dilute top and at the
+Dropped: the −∇·u part of Lun et al.'s collisional loss (γ above is its θ^{3/2} part, as in MFIX
+and OpenFOAM), friction and rotation, anisotropy of θ, the Knudsen layer at the dilute top and at the
 floor (the kinetic relations are those of a dense, near-equilibrium gas), lateral structure (the
 bed is horizontally uniform: this is the 1-D limit of the 3-D bed, which a horizontally uniform
 3-D run equals).
@@ -122,12 +124,17 @@ def dissipation(phi, theta, rho_s, d, e):
 
 
 @numba.njit(cache=True, inline="always")
-def wall_loss(phi, theta, rho_s, e_w):
-    """Energy flux into the floor from the collisions with it, (1 − e_w²) ρ_s φ g0 θ √(θ/(2π)) [W/m²]:
-    the Maxwellian flux of normal kinetic energy onto a wall, ρ θ √(θ/(2π)), enhanced by the
-    contact value g0 as the collisional terms are, times the fraction (1 − e_w²) lost."""
+def wall_loss(phi, theta, rho_s, e, e_w):
+    """Energy flux into the floor from the collisions with it [W/m²]:
+    (1 − e_w) p √(2θ/π) = (1 − e_w²) ρ_w θ √(θ/(2π)), p the kinetic pressure of the bed at the
+    floor (:func:`kinetic_pressure`, sphere–sphere restitution e).  A Maxwellian of density ρ_w
+    at the wall brings the normal kinetic energy ρ_w θ √(θ/(2π)) per unit area and time, of which
+    the fraction (1 − e_w²) is lost, and the momentum it gives the wall, (1 + e_w) ρ_w θ/2, is the
+    pressure p there (the contact theorem of hard spheres at a hard wall): ρ_w = 2p/((1 + e_w)θ),
+    which for elastic spheres and floor is ρ_s φ (1 + 4φg0), the wall's contact density (not the
+    spheres' pair contact value ρ_s φ g0, which the package used before 2026-12-02)."""
     t = max(theta, 0.0)
-    return (1.0 - e_w * e_w) * rho_s * phi * g0_cs(phi) * t * math.sqrt(t / (2.0 * math.pi))
+    return (1.0 - e_w) * kinetic_pressure(phi, t, rho_s, e) * math.sqrt(2.0 * t / math.pi)
 
 
 def constitutive_numpy(phi, theta, rho_s, d, e):
