@@ -210,3 +210,19 @@ def test_bad_run_arguments_are_rejected():
         run_dem(col, Rest(), 0.1, gravity_ramp=-1.0)
     with pytest.raises(ValueError, match="ramp_time"):
         settle(col, 0.1, ramp_time=0.2)
+
+
+@pytest.mark.parametrize("period", [None, 0.6, 2.0])
+def test_a_single_tap_longer_than_the_tap_period_runs_to_its_end(period):
+    """One tap ignores the tap period (the train's spacing): a 0.4 Hz tap (1.25 s) with the default
+    1-s period, or a 0.6-s one, is a whole half sine, continuous, with its velocity jumps at its
+    ends (it dropped to 0 at t0 + period)."""
+    a, f, t0 = 0.01, 0.4, 0.1
+    m = HalfSineTaps(a, f, start=t0, period=period)
+    w = 2.0 * math.pi * f
+    for t in (t0 + 0.3, t0 + 0.6, t0 + 0.999999, t0 + 1.0, t0 + 1.2):
+        z, v, acc = m.state(t)
+        assert z == pytest.approx(a * math.sin(w * (t - t0)), rel=1e-12)
+        assert v == pytest.approx(a * w * math.cos(w * (t - t0)), rel=1e-12)
+    assert m.state(t0 + 1.26) == (0.0, 0.0, 0.0)
+    assert [tj for tj, _ in m.jumps] == pytest.approx([t0, t0 + 0.5 / f])

@@ -68,7 +68,8 @@ def _half_sine_taps_state(t, p):
     period = p[4]
     if t < t0:
         return 0.0, 0.0, 0.0
-    k = int(math.floor((t - t0) / period)) if period > 0.0 else 0
+    # one tap: no train, the period plays no part (it may be shorter than the tap)
+    k = int(math.floor((t - t0) / period)) if (period > 0.0 and n > 1) else 0
     if k >= n:
         return 0.0, 0.0, 0.0
     s = t - (t0 + k * period)
@@ -161,8 +162,8 @@ def HalfSineTaps(amplitude: float, frequency: float, start: float = 0.0, n_taps:
     frequency : f [Hz]; ω = 2π f.  One tap lasts 1/(2f).
     start : time of the first tap t_0 [s]
     n_taps : number of taps
-    period : time between tap starts [s]; must be at least the tap duration 1/(2f).
-        Default: 1 s.
+    period : time between tap starts [s]; with more than one tap at least the tap duration
+        1/(2f); a single tap ignores it.  Default: 1 s.
 
     At each tap start ϑ' jumps from 0 to aω and at each tap end from -aω to 0, so both
     jumps are +aω; in the floor frame the material receives -aω at each.
