@@ -186,7 +186,8 @@ FIELDS: tuple[_Field, ...] = (
            "formulation it has)", choices=("eulerian", "lagrangian")),
     _Field("numerics", "points_per_diameter", "int", 10, "grid cells per sphere diameter (the "
            "interaction radius d must span at least 2 cells)", "", 2, 1000),
-    _Field("numerics", "cfl", "float", None, "Courant number override (default: the preset's); "
+    _Field("numerics", "cfl", "float", None, "Courant number override (default: the preset's; the packing "
+           "kernel's: 0.4 eulerian, 0.5 lagrangian, 0.25 lagrangian with restitution 1); "
            "at most the chosen stepper's stability limit", "", 0, 4, lo_open=True),
     _Field("numerics", "stepper", "str", None, "Runge-Kutta stepper override (default: the "
            "preset's)", choices=_STEPPERS),

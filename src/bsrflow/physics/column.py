@@ -72,7 +72,8 @@ class ColumnSetup:
     "packing" (the contact law's continuum, :mod:`bsrflow.physics.packing`; m0, ε and scheme
     do not enter); formulation: "eulerian" or "lagrangian" (packing only); stiffness_factor in
     (0, 1]: the packing law's stiffness K·factor (the reduced-stiffness option); cfl: the
-    packing discretisation's CFL number (default 0.4 Eulerian, 0.5 Lagrangian); range_over_d: the
+    packing discretisation's CFL number (default 0.4 Eulerian, 0.5 Lagrangian, 0.25 Lagrangian
+    with e = 1: :class:`~bsrflow.numerics.packing.LagrangianPacking`); range_over_d: the
     packing interaction's range R/d (:meth:`interaction_range`; None: the formulation's default,
     1 (nonlocal, R = d) for the Lagrangian formulation, 0 (the local limit) for the Eulerian one,
     which supports only 0; a nonzero R must be a whole number of point spacings k/ppd).
