@@ -266,3 +266,15 @@ def test_elastic_law_defaults_to_a_step_at_which_a_resting_column_stays_at_rest(
     assert ke < 1e-6
     assert kinetic_energy(cfl=0.5)[1] > 1e-5
     assert ColumnSetup(kernel_name="packing", formulation="lagrangian").packing_discretisation().cfl == 0.5
+
+
+def test_lagrangian_grid_velocity_is_zero_where_there_is_no_material():
+    """The grid fields of the material points in flight: the velocity is interpolated between
+    points where there is material and 0 in the vacuum above it (it was the top point's)."""
+    s = ColumnSetup(kernel_name="packing", formulation="lagrangian", points_per_diameter=5)
+    disc = s.packing_discretisation()
+    disc.advance(0.0, 0.45)                          # the column in flight after the tap at 0.4 s
+    rho, u, _, _ = disc.observe()
+    assert np.abs(disc.v).max() > 0.5               # it moves
+    assert np.any(rho == 0.0) and np.all(u[rho == 0.0] == 0.0)
+    assert np.abs(u[rho > 0.0]).max() > 0.5

@@ -254,6 +254,7 @@ class LagrangianPacking(_Base):
         faces = np.concatenate([[0.0], self.grid.x + 0.5 * dx])
         rho = np.diff(np.interp(faces, nodes, cum)) / dx
         u = np.interp(self.grid.x, self.x, self.v)
+        u[rho <= 0.0] = 0.0                      # no velocity where there is no material (as Eulerian)
         tracers = np.interp(self.sphere_masses, cum, nodes)
         return rho, u, tracers, 0.5 * self.mu * float(np.sum(self.v * self.v))
 

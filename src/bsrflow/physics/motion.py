@@ -116,7 +116,9 @@ class AppliedMotion:
         self.jumps = sorted((float(t), float(dv)) for t, dv in self.jumps)
 
     def state(self, t: float) -> tuple[float, float, float]:
-        """(ϑ [m], ϑ' [m/s], smooth ϑ'' [m/s^2]) at time ``t`` [s] (right-continuous)."""
+        """(ϑ [m], ϑ' [m/s], smooth ϑ'' [m/s^2]) at time ``t`` [s]; at a velocity jump the value on
+        either side may be returned (a half-sine tap gives ϑ' = aω at its start, the value after
+        the jump, and −aω at its end, the value before it): use :attr:`jumps` for the jumps."""
         return self.fn(float(t), self.params)
 
     def displacement(self, t) -> np.ndarray:
