@@ -173,3 +173,16 @@ def test_flight_definition_is_the_reference_scripts():
     a = flights_from_force(t, force, 1.0)
     b = mod.flights_from_force(t, force, 1.0)
     assert len(a) > 3 and np.allclose(np.array(a, dtype=float), np.array(b, dtype=float), equal_nan=True)
+
+
+def test_mean_flight_counts_back_from_the_last_finished_flight():
+    """A period-doubled bed alternates long and short flights; the flight still going at the end
+    of the run is dropped *before* the last six are taken, so three of each are averaged (with
+    nanmean over the last six cycles, two long and three short)."""
+    from bsrflow.analysis.compare_bed import last_complete_flights
+    tau = [0.05, 0.02, 0.05, 0.02, 0.05, 0.02, 0.05, 0.02, np.nan]
+    last = last_complete_flights(tau)
+    assert len(last) == 6 and np.mean(last) == pytest.approx(0.035)
+    assert np.nanmean(tau[-6:]) == pytest.approx(0.032)          # the old rule's bias
+    assert list(last_complete_flights([0.03, None, 0.04], n=6)) == [0.03, 0.04]
+    assert period_doubling_measure(last)["period_doubled"]

@@ -783,8 +783,12 @@ def postprocess(name: str) -> dict:
         "flight_time_per_cycle_s": [None if math.isnan(v) else float(v) for v in tau],
         "flight_time_mean_s": float(np.nanmean(tau)),
         "flight_time_mean_over_T": float(np.nanmean(tau) / PERIOD),
-        "flight_time_mean_last6_s": float(np.nanmean(tau[-6:])),
-        "flight_time_std_last6_s": float(np.nanstd(tau[-6:])),
+        # the last six *finished* flights (an unfinished last flight dropped before counting,
+        # so that a period-doubled bed's long and short flights stay balanced; the committed
+        # summaries before 2026-12-02 took nanmean(tau[-6:]), and bsrflow compare-bed recomputes
+        # this mean from flight_time_per_cycle_s)
+        "flight_time_mean_last6_s": float(np.mean(tau[~np.isnan(tau)][-6:])),
+        "flight_time_std_last6_s": float(np.std(tau[~np.isnan(tau)][-6:])),
         "off_floor_time_per_cycle_s": [float(v) for v in offfrac[meas]],
         "com_rel_mean_over_d": float(tr[tm, 4].mean() / D),
         "com_rel_max_over_d": float(tr[tm, 4].max() / D),
@@ -842,7 +846,8 @@ def gap_flight(out: Path) -> dict:
     g["gap_flight_even_odd_split_last6"] = pdm.get("even_odd_split")
     # the force-based period-doubling test on the last 6 measured cycles only (the
     # start-up transient of the strongest shaking lasts into the first measured cycles)
-    p6 = period_doubling_measure(np.array(s["flight_time_per_cycle_s"][-6:], dtype=float))
+    finished = np.array([np.nan if v is None else v for v in s["flight_time_per_cycle_s"]], dtype=float)
+    p6 = period_doubling_measure(finished[~np.isnan(finished)][-6:])
     g.update({k + "_last6": v for k, v in p6.items()})
     s.update(g)
     (out / "summary.json").write_text(json.dumps(s, indent=2))
