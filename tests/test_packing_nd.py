@@ -26,11 +26,12 @@ def test_horizontally_uniform_packing_equals_the_1d_run(dim, t_end):
     assert parts["steps_nd"] == parts["steps_1d"] > 1000
 
 
-def _random_state(rng, shape3):
+def _random_state(rng, shape3, to_the_lid=False):
     rc = LAW.close_packing_density
     q = np.zeros((5,) + shape3)
     q[0] = rc * rng.uniform(0.9, 1.02, shape3)
-    q[0][..., -3:] = 0.0                       # vacuum at the top
+    if not to_the_lid:
+        q[0][..., -3:] = 0.0                   # vacuum at the top
     q[0][..., -4] *= 0.3
     for c in (1, 2, 3):
         q[c] = q[0] * rng.normal(0.0, 0.2, shape3)
@@ -38,11 +39,13 @@ def _random_state(rng, shape3):
     return q
 
 
+@pytest.mark.parametrize("to_the_lid", [False, True])
 @pytest.mark.parametrize("dim", [2, 3])
-def test_compiled_rhs_matches_numpy(dim):
+def test_compiled_rhs_matches_numpy(dim, to_the_lid):
+    """Also with material in the top cells, against the lid at the domain top (mirror ghosts)."""
     rng = np.random.default_rng(5 + dim)
     shape3 = (5, 1, 12) if dim == 2 else (4, 5, 12)
-    q = _random_state(rng, shape3)
+    q = _random_state(rng, shape3, to_the_lid)
     if dim == 2:
         q[2] = 0.0
     dq = np.zeros_like(q)

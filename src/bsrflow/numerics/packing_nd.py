@@ -16,7 +16,9 @@ faces, ``packing_kernels.compaction_face``, with the axis's velocity), the 1-D H
 (``packing_kernels.hlle_waves``: Einfeldt's bounds with the secant sound speed) for the
 normal flux, the transverse momenta carried in the same HLLE flux; SSP-RK3 in increment form;
 the density floor and history pass after every step.  Boundaries: periodic sides, the floor
-below (mirror: ρ, δ_max even, u_z odd, u_x, u_y even), vacuum above (empty ghost cells).
+below (mirror: ρ, δ_max even, u_z odd, u_x, u_y even), a lid at the domain top (mirror ghosts
+too: no mass leaves; the run stops when more than ``top_fraction`` of the mass reaches the top six
+cell layers, so the bed's top is a vacuum in every run that finishes).
 Δt = cfl Δx / (c_bound + max Σ_a |u_a|), with cfl ≤ 0.5/n (default 0.4/n).
 
 A horizontally uniform state evolves as the 1-D formulation at the same Δt: the horizontal

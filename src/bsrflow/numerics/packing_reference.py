@@ -128,7 +128,7 @@ def hlle_waves(rL, uL, hL, rR, uR, hR, d, m, k1, k2, c_cap, rho_tiny):
 def fv_rhs_nd(q, dim, dx, accel, d, m, k1, k2, c_cap, rho_tiny):
     """NumPy twin of :func:`bsrflow.numerics.packing_nd.fv_rhs_nd`: q of shape (5, NX, NY, NZ)
     (ρ, ρu_x, ρu_y, ρu_z, ρδ_max); returns dq.  Along every axis: primitives, ghosts (floor
-    mirror with u_z odd and an empty top along z; periodic along x, y), minmod reconstruction,
+    mirror with u_z odd and the lid at the domain top, a mirror too, along z; periodic along x, y), minmod reconstruction,
     the HLLE flux of (ρ, ρu_n, ρδ_max) and of the transverse momenta with the same wave bounds."""
     q = np.asarray(q, float)
     r = q[0]
@@ -144,8 +144,9 @@ def fv_rhs_nd(q, dim, dx, accel, d, m, k1, k2, c_cap, rho_tiny):
         if ax == 3:
             lo = [x[..., 1::-1] for x in w]
             lo[normal] = -lo[normal]
-            z = [np.zeros(x.shape[:-1] + (3,)) for x in w]
-            w = [np.concatenate([a, x, b], axis=-1) for a, x, b in zip(lo, w, z)]
+            top = [x[..., :-4:-1] for x in w]              # the lid: mirror ghosts, u_z odd
+            top[normal] = -top[normal]
+            w = [np.concatenate([a, x, b], axis=-1) for a, x, b in zip(lo, w, top)]
         else:
             w = [np.concatenate([x[..., -2:], x, x[..., :3]], axis=-1) for x in w]
         n = w[0].shape[-1] - 5
