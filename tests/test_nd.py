@@ -504,3 +504,39 @@ def _wb_like(z, a, b, p):
     dot = z[0] * (b[0] - a[0]) + z[1] * (b[1] - a[1]) + z[2] * (b[2] - a[2])
     s = -p[0] * (p[2] - r) / (r + (r == 0.0)) * (1.0 - p[1] * np.sign(dot))
     return s * z[0], s * z[1], s * z[2]
+
+
+def _carried_tracer(shape, velocity, t_end, tracer, integrator, **bcs):
+    """A tracer in a uniform flow (no interaction, no gravity) on a grid of cell 1 cm."""
+    grid = GridND(shape, 0.01, **bcs)
+    sim = SimulationND(BSRModelND(walton_braun_nd(1e-12, 0.0, 0.02), gravity=0.0), grid,
+                       Scheme(stepper="kutta3", filter=False, dt=1e-3, tracer_integrator=integrator, check_cfl=False))
+    u = np.zeros((grid.dim,) + shape)
+    for axis, v in enumerate(velocity):
+        u[axis] = v
+    return sim.run(u, np.ones(shape), t_end, tracers=[tracer], save_times=[0.0, t_end]).tracers[-1][0]
+
+
+@pytest.mark.parametrize("integrator", ["euler", "rk"])
+def test_tracers_wrap_on_every_periodic_axis(integrator):
+    """Each periodic axis wraps its tracers, whatever the other axes are: x periodic beside a
+    y wall (it was clamped to the wall-like edge), and a periodic vertical axis (it left the box)."""
+    x, y, z = _carried_tracer((8, 8, 8), (1.0, 0.0, 0.0), 0.1, [0.05, 0.04, 0.04], integrator,
+                              bc_horizontal=("periodic", "wall"))
+    assert x == pytest.approx((0.05 + 0.1) % 0.08, abs=1e-12) and (y, z) == pytest.approx((0.04, 0.04), abs=1e-12)
+    x, z = _carried_tracer((8, 8), (1.0, 0.5), 0.1, [0.05, 0.05], integrator, bc_lower="periodic",
+                           bc_upper="periodic")
+    assert (x, z) == pytest.approx(((0.05 + 0.1) % 0.08, (0.05 + 0.05) % 0.08), abs=1e-12)
+
+
+def test_tracer_wraps_on_a_periodic_1d_grid():
+    from bsrflow.numerics.grid import Grid1D
+    from bsrflow.numerics.solver import Simulation
+    from bsrflow.physics.kernels import walton_braun
+    from bsrflow.physics.model import BSRModel
+
+    grid = Grid1D(0.0, 0.08, 8, "periodic", "periodic")
+    sim = Simulation(BSRModel(kernel=walton_braun(1e-12, 0.0, 0.02)), grid,
+                     Scheme(stepper="kutta3", filter=False, dt=1e-3, check_cfl=False))
+    res = sim.run(np.ones(8), np.ones(8), 0.2, tracers=[0.05], save_times=[0.0, 0.2])
+    assert res.tracers[-1][0] == pytest.approx((0.05 + 0.2) % 0.08, abs=1e-12)

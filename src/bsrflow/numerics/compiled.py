@@ -437,7 +437,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn, wave_speed_fn):
         return worst, where
 
     @numba.njit(cache=False)
-    def combine(u, rho, dt, b, ku, kr, hi, tracers, tracer_mode, vt, floor_tracers, xlo):
+    def combine(u, rho, dt, b, ku, kr, hi, tracers, tracer_mode, vt, floor_tracers, xlo, dx):
         """y += Δt Σ_j b_j k_j on the cells below ``hi``; the tracers by their integrator
         (1: forward Euler with the start-of-step velocity, 2: the tableau), kept above a floor."""
         s = b.size
@@ -455,10 +455,15 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn, wave_speed_fn):
             for n in range(nt):
                 for j in range(s):
                     tracers[n] += dt * b[j] * vt[j, n]
-        if nt > 0 and floor_tracers:
+        if nt > 0 and floor_tracers == 1:
             for n in range(nt):
                 if tracers[n] < xlo:  # floor
                     tracers[n] = xlo
+        elif nt > 0 and floor_tracers == 2:
+            for n in range(nt):       # periodic: back into [xlo, xlo + N dx)
+                length = u.size * dx
+                rel = tracers[n] - xlo
+                tracers[n] = xlo + (rel - length * math.floor(rel / length))
 
     @numba.njit(cache=False)
     def post_step(u, rho, t, hi, can_skip, filt, positivity, vac_thr, sel_tau, sel2, rho_floor, up, rp, G, bcl,
@@ -585,7 +590,8 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn, wave_speed_fn):
         dt_prop = 1e300
         can_skip = skip_vacuum and vac_thr > 0.0 and bch == 2
         reach = 2 if (hyper > 0.0 or sel2 > 0.0) else 1
-        floor_tracers = bcl == 1 or bcl == 4
+        # tracers after a step: 1 kept above the floor (floor, mirror), 2 wrapped (periodic)
+        floor_tracers = 1 if (bcl == 1 or bcl == 4) else (2 if bcl == 0 else 0)
         hi = N
         # the skip is exact only when the extension will overwrite the vacuum's velocities:
         # there is material at the start of the step (kept up to date from the extension)
@@ -664,7 +670,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn, wave_speed_fn):
                 if worst > strain_limit:
                     status = 6
                     break
-            combine(u, rho, dt, b, ku, kr, hi, tracers, tracer_mode, vt, floor_tracers, xlo)
+            combine(u, rho, dt, b, ku, kr, hi, tracers, tracer_mode, vt, floor_tracers, xlo, dx)
             t = t_end if last else t + dt
             n_act, mat = post_step(u, rho, t, hi, can_skip, filt, positivity, vac_thr, sel_tau, sel2, rho_floor,
                                    up, rp, G, bcl, bch, xlo, dx, bp, wsp)

@@ -490,13 +490,11 @@ def make_core_nd(kernel_fn, motion_fn, wave_speed_fn, positivity=False, tracers=
                     if cc == 1 and not has_y:
                         tracers[n, cc] = 0.0
                         continue
-                    if cc < 2:
-                        rel = tracers[n, cc] - lo[cc]
-                        if periodic:
-                            rel = rel - box[cc] * math.floor(rel / box[cc])
-                        else:
-                            rel = min(max(rel, 0.0), box[cc])
-                        tracers[n, cc] = lo[cc] + rel
+                    rel = tracers[n, cc] - lo[cc]
+                    if periodic[cc]:
+                        tracers[n, cc] = lo[cc] + (rel - box[cc] * math.floor(rel / box[cc]))
+                    elif cc < 2:
+                        tracers[n, cc] = lo[cc] + min(max(rel, 0.0), box[cc])
                     elif floor and tracers[n, 2] < lo[2]:
                         tracers[n, 2] = lo[2]
             t = t_end if last else t + dt

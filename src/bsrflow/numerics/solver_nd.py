@@ -308,7 +308,10 @@ class SimulationND:
         mode = 0 if tracers is None else (1 if s.tracer_integrator == "euler" else 2)
         lo3 = np.array([g.lower[0], g.lower[1] if g.dim == 3 else 0.0, g.lower[-1]])
         box = np.array([g.shape[0] * g.dx, (g.shape[1] * g.dx) if g.dim == 3 else 1.0, g.shape[-1] * g.dx])
-        periodic = all(b == "periodic" for b in g.bc_horizontal)
+        # per axis (x, y, z): tracers wrapped on a periodic axis, kept inside the walls otherwise
+        sides = tuple(g.bc_horizontal) + (("periodic",) if g.dim == 2 else ())
+        periodic = np.array([sides[0] == "periodic", sides[1] == "periodic",
+                             g.bc_lower == "periodic"])
         (sx, sy, sz), (gx, gy, gz), (kx, ky, kz), prz = self.maps
         Gx, Gy, Gz = self.G
         top_layers = self.W if g.bc_upper == "vacuum" else 0
