@@ -162,11 +162,16 @@ def test_step_pieces_against_numpy():
     uc, rc, tr = u.copy(), rho.copy(), np.array([0.05, -0.001 + 0.0, 0.5])
     vt = rng.normal(size=(s, 3))
     tr_ref = np.maximum(tr + dt * (b @ vt), 0.0)
-    core.combine(uc, rc, dt, b, ku, kr, hi, tr, 2, vt, True, 0.0)
+    core.combine(uc, rc, dt, b, ku, kr, hi, tr, 2, vt, 1, 0.0, 0.02)
     np.testing.assert_allclose(uc[:hi], u[:hi] + dt * (b @ ku)[:hi], rtol=1e-14, atol=1e-16)
     np.testing.assert_array_equal(uc[hi:], u[hi:])
     np.testing.assert_allclose(rc[:hi], rho[:hi] + dt * (b @ kr)[:hi], rtol=1e-14, atol=1e-16)
     np.testing.assert_allclose(tr, tr_ref, rtol=1e-14, atol=1e-16)
+    # on a periodic grid (mode 2) the tracers are wrapped into [0, N dx) instead
+    trp = np.array([0.05, -0.001, 1.05])
+    core.combine(u.copy(), rho.copy(), dt, b, ku, kr, hi, trp, 2, vt, 2, 0.0, 0.02)
+    np.testing.assert_allclose(trp, np.mod(np.array([0.05, -0.001, 1.05]) + dt * (b @ vt), N * 0.02),
+                               rtol=1e-12, atol=1e-15)
     # error norm, vacuum cells' velocity error not counted
     thr = 0.3
     eu = np.abs(dt * ((b - bhat) @ ku)) / (1e-6 + 1e-3 * np.abs(u))
