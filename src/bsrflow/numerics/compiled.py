@@ -328,7 +328,8 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn, wave_speed_fn):
     def make_positive(rho):
         """Mass-conserving positivity fix: each cell with ρ < 0 is set to 0 and its deficit is
         taken from the nearest cells with positive density, in proportion to their density,
-        widening the neighbourhood until the deficit is covered."""
+        widening the neighbourhood until the deficit is covered (a state whose total is negative,
+        a failed one, cannot be covered and is set to 0: mass is then created)."""
         N = rho.size
         for i in range(N):
             if rho[i] < 0.0:

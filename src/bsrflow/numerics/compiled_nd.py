@@ -215,7 +215,9 @@ def make_positive_columns(rho):
     ``compiled.make_positive`` along z): in every vertical column each cell with ρ < 0 is set
     to 0 and its deficit is taken from the nearest cells of the column with ρ > 0, in
     proportion to their density, widening the neighbourhood until the deficit is covered.  The
-    mass of every column is kept (to round-off); a horizontally uniform state stays uniform."""
+    mass of every column whose total is positive is kept (to round-off; a column whose total is
+    negative, a failed state, is set to 0, which creates mass); a horizontally uniform state
+    stays uniform."""
     NX, NY, NZ = rho.shape
     for i in prange(NX):
         for j in range(NY):
