@@ -163,3 +163,29 @@ def test_resume_of_a_finished_layer_run_does_nothing(tmp_path, capsys):
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and "another config" in lines[0]
     assert out.read_bytes() == before
+
+
+def test_layer_resume_refuses_a_foreign_or_unreadable_output(tmp_path, capsys):
+    """A layer's checkpoint beside an output another config wrote, or beside a file that is not
+    an output: one line, exit 2 (the foreign file was continued; the unreadable one gave a
+    traceback)."""
+    import os
+
+    def stop(t):
+        if t > 0.055:
+            raise KeyboardInterrupt()
+    texts = {"a": CONFIG.replace("vtk = true", "vtk = false"),
+             "b": CONFIG.replace("vtk = true", "vtk = false").replace("t_end = 0.12", "t_end = 0.11")}
+    for stem, text in texts.items():
+        (tmp_path / f"{stem}.toml").write_text(text)
+        with pytest.raises(KeyboardInterrupt):
+            run_layer_config(load_layer_config(tmp_path / f"{stem}.toml"), tmp_path / f"{stem}.nc", progress=stop)
+    os.replace(tmp_path / "b.nc", tmp_path / "a.nc")        # a's checkpoint, b's output
+    argv = ["run", str(tmp_path / "a.toml"), "--out", str(tmp_path / "a.nc"), "--resume", "--quiet"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "was written by another config" in err[0]
+    (tmp_path / "a.nc").write_bytes(b"garbage")
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "cannot reopen" in err[0] and "--resume" in err[0]

@@ -211,6 +211,28 @@ def test_resume_refuses_a_changed_config_and_a_missing_checkpoint(tmp_path, caps
     assert len(lines) == 1 and "no checkpoint" in lines[0]
 
 
+def test_resume_refuses_an_output_written_by_another_config(tmp_path, capsys):
+    """The checkpoint matches the config, the output beside it does not (another run's file):
+    refused in one line (it was continued, the file then mixing the two runs)."""
+    def stop(t):
+        if t >= 0.05:
+            raise _Stop()
+    cfg_path = write_config(tmp_path / "c.toml")
+    other_path = write_config(tmp_path / "o.toml", start=0.03)
+    out, other = tmp_path / "c.nc", tmp_path / "o.nc"
+    for path, nc in ((cfg_path, out), (other_path, other)):
+        with pytest.raises(_Stop):
+            run_config(load_config(path), nc, progress=stop)
+    os.replace(other, out)                        # the checkpoint is c's, the output o's
+    assert main(["run", str(cfg_path), "--out", str(out), "--resume"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "was written by another config" in lines[0] and "tap.start" in lines[0]
+    out.write_bytes(b"not a netCDF file")
+    assert main(["run", str(cfg_path), "--out", str(out), "--resume"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "cannot reopen" in lines[0]
+
+
 def test_run_that_stops_keeps_snapshots_and_sets_status(tmp_path, capsys):
     # accepted by the validator (CFL 2.3 is below the linear limit 2.3388), but without kernel
     # dissipation a strong tap makes the time step collapse at t = 0.0216 s
@@ -510,3 +532,19 @@ def test_resume_of_a_finished_run_does_nothing(tmp_path, capsys, kind):
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and "another config" in lines[0] and "run.t_end" in lines[0]
     assert out.read_bytes() == before
+
+
+def test_a_packing_run_that_stops_records_its_steps(tmp_path, capsys):
+    """A packing run stopped by its monitor (points crossed at a far too soft contact) exits 3,
+    keeps its snapshots and records its steps (the attribute was missing)."""
+    cfg_path = tmp_path / "p.toml"
+    assert main(["init", str(cfg_path), "--kernel", "packing"]) == 0
+    out = tmp_path / "p.nc"
+    argv = ["run", str(cfg_path), "--out", str(out), "--quiet", "--set", "stiffness_factor=1e-9",
+            "--set", "n_spheres=3", "--set", "t_end=0.6"]
+    assert main(argv) == 3
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    ds = load(out)
+    assert ds.attrs["status"] in err[0] and "crossed" in ds.attrs["status"]
+    assert ds.sizes["time"] >= 1 and int(ds.attrs["steps"]) > 0

@@ -391,9 +391,20 @@ def _layer_writer(out, grid, floor, attrs, save_times, n_tracers, ck_file, resum
     """(the n-D netCDF writer, the save times still to come) of a layer run: a new file (a stale
     checkpoint of an earlier run removed), or with ``resumed_at`` [s] the file kept up to it."""
     from .netcdf import NetCDFWriterND
+    from .runner import output_attrs
     if resumed_at is not None:
-        writer = NetCDFWriterND.resume(out, resumed_at, grid, floor, expected_snapshots=save_times.size,
-                                       n_tracers=n_tracers)
+        if not os.path.exists(out):
+            raise ConfigError("--resume", f"the checkpoint {ck_file} exists but the output {out} does not; "
+                              "run without --resume to start over")
+        if str(output_attrs(out).get("config", "")) != attrs["config"]:
+            raise ConfigError("--resume", f"{out} was written by another config; run without --resume to "
+                              "start over")
+        try:
+            writer = NetCDFWriterND.resume(out, resumed_at, grid, floor, expected_snapshots=save_times.size,
+                                           n_tracers=n_tracers)
+        except Exception as exc:                    # an unreadable or foreign file
+            raise ConfigError("--resume", f"cannot reopen {out}: {type(exc).__name__}: {exc}; run without "
+                              "--resume to start over") from None
         return writer, save_times[save_times >= resumed_at]
     if os.path.exists(ck_file):
         os.remove(ck_file)                            # stale: belongs to an earlier run

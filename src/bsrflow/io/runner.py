@@ -88,13 +88,13 @@ def column_simulation(config: Config):
     return setup, sim.grid, sim.model, sim
 
 
-def _config_difference(a: Config, b: Config) -> str:
+def _config_difference(a: Config, b: Config, where: str = "the checkpoint") -> str:
     da, db = a.to_dict(), b.to_dict()
     for table in da:
         for key in sorted(set(da[table]) | set(db[table])):
             va, vb = da[table].get(key), db[table].get(key)
             if va != vb:
-                return f"{table}.{key} ({vb!r} in the checkpoint, {va!r} now)"
+                return f"{table}.{key} ({vb!r} in {where}, {va!r} now)"
     return ""
 
 
@@ -145,7 +145,7 @@ def run_config(config: Config, out, *, resume: bool = False, progress=None, log=
         ck = _read_matching_checkpoint(config, ckpt_file)
         if ck.u.shape != (grid.n_cells,) or ck.tracers.shape != (n_tr,):
             raise ConfigError("--resume", f"the checkpoint's state does not match the grid of the config")
-        writer, kept = _reopen_output(out, ck.t, grid, n_tr, floor, save_times)
+        writer, kept = _reopen_output(out, ck.t, grid, n_tr, floor, save_times, config)
         u0, rho0, tr0, t0 = ck.u, ck.rho, ck.tracers, ck.t
         steps0, rejected0, wall0 = ck.steps, ck.rejected_steps, ck.wall_time
         log(f"resuming from the checkpoint at t = {t0:.6g} s ({kept.size} snapshots kept in {out})")
@@ -235,9 +235,31 @@ def _read_matching_checkpoint(config: Config, ckpt_file) -> Checkpoint:
     return ck
 
 
-def _reopen_output(out, t_ck, grid, n_tr, floor, save_times):
+def output_attrs(path) -> dict:
+    """The global attributes of an output file (read alone, without its data); ConfigError
+    ("--resume", one line) when it cannot be read."""
+    import h5py
+    try:
+        with h5py.File(os.fspath(path), "r", locking=False) as h:
+            return {k: (v.decode() if isinstance(v, bytes) else v) for k, v in h.attrs.items()}
+    except Exception as exc:                       # truncated, garbage, not HDF5
+        raise ConfigError("--resume", f"cannot reopen {path}: {type(exc).__name__}: {exc}; run without "
+                          "--resume to start over") from None
+
+
+def _reopen_output(out, t_ck, grid, n_tr, floor, save_times, config: Config):
     """Reopen the output of a resumed run, keeping its snapshots before the checkpoint time
-    ``t_ck``; refused (one line) when they are not exactly the expected ones."""
+    ``t_ck``; refused (one line) when another config wrote it or its snapshots are not exactly
+    the expected ones."""
+    try:
+        diff = _config_difference(config, saved_config(str(output_attrs(out).get("config", ""))), "the output")
+    except (ValueError, tomllib.TOMLDecodeError) as exc:
+        if isinstance(exc, ConfigError):
+            raise
+        diff = "its config, which cannot be read"
+    if diff:
+        raise ConfigError("--resume", f"{out} was written by another config (it differs in {diff}); run "
+                          "without --resume to start over")
     expected = save_times[save_times < t_ck]
     try:
         writer = NetCDFWriter.resume(out, t_ck, grid.x, grid.dx, n_tr, floor, expected_snapshots=save_times.size)
@@ -322,7 +344,7 @@ def _run_packing_config(config: Config, out, *, resume=False, progress=None, log
             raise ConfigError("--resume", f"the checkpoint's state does not match the config: {exc}") from None
         disc.counters[0] = ck.steps
         disc.steps = ck.steps
-        writer, kept = _reopen_output(out, ck.t, grid, n_tr, floor, save_times)
+        writer, kept = _reopen_output(out, ck.t, grid, n_tr, floor, save_times, config)
         t0, steps0, wall0 = ck.t, ck.steps, ck.wall_time
         log(f"resuming from the checkpoint at t = {t0:.6g} s ({kept.size} snapshots kept in {out})")
     else:
@@ -345,7 +367,8 @@ def _run_packing_config(config: Config, out, *, resume=False, progress=None, log
             progress(t)
 
     wall_start = _time.perf_counter()
-    with _closing_on_failure(writer, dict,
+    stop_attrs = lambda: {"steps": np.int64(disc.counters[0]), "rejected_steps": np.int64(0)}  # noqa: E731
+    with _closing_on_failure(writer, stop_attrs,
                              lambda exc: _interrupted(exc, writer, out, resume, config, last_ckpt[0], ckpt_file,
                                                       ckpt_times, t0)):
         log(f"compiling the {disc.name} packing solver (once per process)")
