@@ -257,3 +257,29 @@ def test_compare_names_the_option_of_a_bad_value(argv, option, capsys, tmp_path)
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and f"error: {option} = " in err[0] and "valid range" in err[0]
     assert not js.exists()
+
+
+@pytest.mark.parametrize("signame", ["SIGTERM", "SIGINT"])
+def test_an_interrupt_swallowed_while_compiling_is_raised_at_the_next_progress_call(signame):
+    """llvmlite calls back into Python while numba compiles and swallows an exception raised
+    there ("Exception ignored ..."): a Ctrl-C or SIGTERM in the first seconds of a run was lost
+    and the run went on.  The signal is recorded and raised again at the next progress call."""
+    import os
+    import signal
+    import time
+
+    from bsrflow.io import commands
+
+    with commands._sigterm_as_interrupt():
+        try:                                          # the swallowing callback
+            os.kill(os.getpid(), getattr(signal, signame))
+            time.sleep(0.5)
+        except KeyboardInterrupt:
+            pass
+        progress, close = commands._progress_bar(1.0, False)
+        with pytest.raises(KeyboardInterrupt) as caught:
+            progress(0.0)
+        assert getattr(caught.value, "signal_name", "SIGINT") == signame
+        progress(0.1)                                 # raised once
+        close()
+    assert commands._PENDING_SIGNALS == []

@@ -60,22 +60,43 @@ class _Terminated(KeyboardInterrupt):
     signal_number = int(signal.SIGTERM)
 
 
+_PENDING_SIGNALS: list = []
+"""Signals received inside :func:`_sigterm_as_interrupt` whose interrupt may not have reached
+the run: one that arrives while numba compiles is raised inside llvmlite's ctypes callback,
+which prints "Exception ignored" and goes on (a review, 2026-12-02).  :func:`_raise_pending`
+raises it again at the run's next progress call (the first one follows the compilation)."""
+
+
+def _raise_pending():
+    """Raise the interrupt of a signal recorded in :data:`_PENDING_SIGNALS` (and forget it)."""
+    if _PENDING_SIGNALS:
+        signum = _PENDING_SIGNALS[-1]
+        _PENDING_SIGNALS.clear()
+        raise _Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
+
+
 @contextlib.contextmanager
 def _sigterm_as_interrupt():
     """While the block runs, SIGTERM raises :class:`_Terminated` (a KeyboardInterrupt) in the
-    main thread, so a terminated run closes its file as an interrupted one does."""
+    main thread, so a terminated run closes its file as an interrupted one does; SIGTERM and
+    SIGINT are also recorded for :func:`_raise_pending` (the interrupt can be swallowed)."""
+    _PENDING_SIGNALS.clear()
     if threading.current_thread() is not threading.main_thread():
         yield
         return
 
     def handler(signum, frame):
-        raise _Terminated()
+        _PENDING_SIGNALS.append(signum)
+        raise _Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
 
-    old = signal.signal(signal.SIGTERM, handler)
+    old_term = signal.signal(signal.SIGTERM, handler)
+    old_int = signal.signal(signal.SIGINT, handler)
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, old)
+        signal.signal(signal.SIGTERM, old_term)
+        signal.signal(signal.SIGINT, old_int)
+        _PENDING_SIGNALS.clear()
 
 
 def _init(args) -> int:
@@ -95,6 +116,7 @@ def _progress_bar(total, show_bar):
 
     def progress(t):
         nonlocal bar
+        _raise_pending()                     # a Ctrl-C / SIGTERM swallowed while compiling
         if not show_bar:
             return
         if bar is None:
