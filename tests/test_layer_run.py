@@ -38,6 +38,7 @@ def test_layer_config_runs_into_netcdf_and_vtk(tmp_path, run_layer_file):
     ("[layer]\nkind = 'box'\n", "layer.kind"),
     ("[layer]\nnosuch = 1\n", "layer.nosuch"),
     ("[layer]\ndim = 4\n", "layer.dim"),
+    ("[layer]\ndim = 2\nt_end = 1e9\n", "layer.save_every"),
     ("[layer]\n[output]\nvtk = 1\n", "output.vtk"),
     ("[layer]\n[extra]\n", "extra"),
     ("[layer]\ndim = 2\n[tracers]\npositions = [[0.01]]\n", "tracers.positions"),

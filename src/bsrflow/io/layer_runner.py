@@ -344,7 +344,10 @@ def _run_packing_bed(cfg: LayerConfig, out, *, resume=False, progress=None, log=
 def _run_files(cfg: LayerConfig, out):
     """(save times [s], checkpoint times [s], checkpoint file, VTK folder or None) of a layer run."""
     from ..numerics.solver import save_schedule
-    save_times = save_schedule(0.0, cfg.setup.t_end, cfg.setup.save_every)
+    try:
+        save_times = save_schedule(0.0, cfg.setup.t_end, cfg.setup.save_every)
+    except ValueError as exc:                    # too many snapshots: name the fields
+        raise ConfigError("layer.save_every", f"{exc} (layer.t_end = {cfg.setup.t_end!r} s)") from None
     vtk_stem = os.path.splitext(out)[0] + "_vtk" if cfg.vtk else None
     if vtk_stem is not None:                # the VTK folder, checked before the run (created by _vtk_writer)
         from .paths import check_output_dir
