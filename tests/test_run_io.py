@@ -534,6 +534,25 @@ def test_resume_of_a_finished_run_does_nothing(tmp_path, capsys, kind):
     assert out.read_bytes() == before
 
 
+def test_resume_refuses_a_checkpoint_of_another_version(tmp_path, capsys):
+    from dataclasses import replace
+
+    from bsrflow.io.checkpoint import read_checkpoint, write_checkpoint
+
+    def stop(t):
+        if t >= 0.05:
+            raise _Stop()
+    cfg_path = write_config(tmp_path / "c.toml")
+    out = tmp_path / "c.nc"
+    with pytest.raises(_Stop):
+        run_config(load_config(cfg_path), out, progress=stop)
+    ck_file = str(out) + ".ckpt"
+    write_checkpoint(ck_file, replace(read_checkpoint(ck_file), version="0.0.1"))
+    assert main(["run", str(cfg_path), "--out", str(out), "--resume"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "written by bsrflow 0.0.1" in lines[0]
+
+
 def test_a_packing_run_that_stops_records_its_steps(tmp_path, capsys):
     """A packing run stopped by its monitor (points crossed at a far too soft contact) exits 3,
     keeps its snapshots and records its steps (the attribute was missing)."""

@@ -378,6 +378,8 @@ def _read_layer_checkpoint(ck_file, cfg: LayerConfig) -> Checkpoint:
     ck = read_checkpoint(ck_file)
     if ck.config != cfg.text:
         raise ConfigError("--resume", f"{ck_file} was written by another config; run without --resume")
+    from .runner import check_checkpoint_version
+    check_checkpoint_version(ck, ck_file)
     return ck
 
 

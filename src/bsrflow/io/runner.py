@@ -232,7 +232,17 @@ def _read_matching_checkpoint(config: Config, ckpt_file) -> Checkpoint:
     if diff:
         raise ConfigError("--resume", f"the config differs from the checkpoint's in {diff}; resume with "
                           "the same config or run without --resume to start over")
+    check_checkpoint_version(ck, ckpt_file)
     return ck
+
+
+def check_checkpoint_version(ck: Checkpoint, ckpt_file) -> None:
+    """Refuse (one line) a checkpoint that another bsrflow version wrote: a resumed run equals an
+    uninterrupted one bit for bit only when the same code computes both parts."""
+    from .. import __version__
+    if ck.version != __version__:
+        raise ConfigError("--resume", f"{ckpt_file} was written by bsrflow {ck.version}, this is {__version__}; "
+                          "run without --resume to start over")
 
 
 def output_attrs(path) -> dict:
