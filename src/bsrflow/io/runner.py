@@ -261,11 +261,10 @@ def _reopen_output(out, t_ck, grid, n_tr, floor, save_times, config: Config):
     """Reopen the output of a resumed run, keeping its snapshots before the checkpoint time
     ``t_ck``; refused (one line) when another config wrote it or its snapshots are not exactly
     the expected ones."""
+    text = str(output_attrs(out).get("config", ""))     # ConfigError when unreadable
     try:
-        diff = _config_difference(config, saved_config(str(output_attrs(out).get("config", ""))), "the output")
-    except (ValueError, tomllib.TOMLDecodeError) as exc:
-        if isinstance(exc, ConfigError):
-            raise
+        diff = _config_difference(config, saved_config(text), "the output")
+    except (ValueError, tomllib.TOMLDecodeError):
         diff = "its config, which cannot be read"
     if diff:
         raise ConfigError("--resume", f"{out} was written by another config (it differs in {diff}); run "

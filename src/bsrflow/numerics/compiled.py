@@ -438,9 +438,10 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn, wave_speed_fn):
         return worst, where
 
     @numba.njit(cache=False)
-    def combine(u, rho, dt, b, ku, kr, hi, tracers, tracer_mode, vt, floor_tracers, xlo, dx):
+    def combine(u, rho, dt, b, ku, kr, hi, tracers, tracer_mode, vt, tracer_bc, xlo, dx):
         """y += Δt Σ_j b_j k_j on the cells below ``hi``; the tracers by their integrator
-        (1: forward Euler with the start-of-step velocity, 2: the tableau), kept above a floor."""
+        (1: forward Euler with the start-of-step velocity, 2: the tableau), then ``tracer_bc``
+        1: kept above a floor, 2: wrapped into a periodic domain, 0: left as they are."""
         s = b.size
         nt = tracers.size
         for j in range(s):
@@ -456,13 +457,13 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn, wave_speed_fn):
             for n in range(nt):
                 for j in range(s):
                     tracers[n] += dt * b[j] * vt[j, n]
-        if nt > 0 and floor_tracers == 1:
+        if tracer_bc == 1:
             for n in range(nt):
                 if tracers[n] < xlo:  # floor
                     tracers[n] = xlo
-        elif nt > 0 and floor_tracers == 2:
+        elif tracer_bc == 2:
+            length = u.size * dx
             for n in range(nt):       # periodic: back into [xlo, xlo + N dx)
-                length = u.size * dx
                 rel = tracers[n] - xlo
                 tracers[n] = xlo + (rel - length * math.floor(rel / length))
 
@@ -592,7 +593,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn, wave_speed_fn):
         can_skip = skip_vacuum and vac_thr > 0.0 and bch == 2
         reach = 2 if (hyper > 0.0 or sel2 > 0.0) else 1
         # tracers after a step: 1 kept above the floor (floor, mirror), 2 wrapped (periodic)
-        floor_tracers = 1 if (bcl == 1 or bcl == 4) else (2 if bcl == 0 else 0)
+        tracer_bc = 1 if (bcl == 1 or bcl == 4) else (2 if bcl == 0 else 0)
         hi = N
         # the skip is exact only when the extension will overwrite the vacuum's velocities:
         # there is material at the start of the step (kept up to date from the extension)
@@ -671,7 +672,7 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn, wave_speed_fn):
                 if worst > strain_limit:
                     status = 6
                     break
-            combine(u, rho, dt, b, ku, kr, hi, tracers, tracer_mode, vt, floor_tracers, xlo, dx)
+            combine(u, rho, dt, b, ku, kr, hi, tracers, tracer_mode, vt, tracer_bc, xlo, dx)
             t = t_end if last else t + dt
             n_act, mat = post_step(u, rho, t, hi, can_skip, filt, positivity, vac_thr, sel_tau, sel2, rho_floor,
                                    up, rp, G, bcl, bch, xlo, dx, bp, wsp)
