@@ -4,7 +4,8 @@ Each command lives in its own module that defines ``add_parser(subparsers)``; th
 adds sets ``func(args) -> int``.  Exit codes: 0 success, 2 invalid input (one line on
 stderr naming the problem), 3 a simulation stopped early (the message says when and where;
 outputs written so far are kept), 130 (143) interrupted by Ctrl-C (SIGTERM), 141 the reader of
-the standard output went away (``| head``), 1 anything unexpected.
+the standard output went away (``| head``), 1 a write that failed during the work (a full disk:
+one line) or anything unexpected.
 """
 
 from __future__ import annotations
@@ -65,6 +66,11 @@ def main(argv=None) -> int:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         print(f"bsrflow {args.command}: error: {msg}", file=sys.stderr)
         return 2
+    except OSError as exc:
+        # a write that failed during the work (a full disk, a file system gone read-only):
+        # one line; `bsrflow run` words it with what the output keeps (bsrflow.io.runner.write_failed)
+        print(f"bsrflow {args.command}: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt as exc:
         # bsrflow.io.runner.run_config puts what was kept and whether --resume can continue
         msg = " ".join(str(exc).split()) or "interrupted"

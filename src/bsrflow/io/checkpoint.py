@@ -69,6 +69,8 @@ def write_checkpoint(path, ck: Checkpoint) -> None:
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
+    except OSError as exc:                  # name the checkpoint (numpy's writes name no file)
+        raise OSError(exc.errno, f"cannot write the checkpoint ({exc.strerror or exc})", path) from exc
     finally:
         if os.path.exists(tmp):
             os.remove(tmp)

@@ -44,6 +44,7 @@ import numpy as np
 
 from .checkpoint import Checkpoint, checkpoint_path, read_checkpoint, write_checkpoint
 from .config import ConfigError
+from .paths import OutputPathError
 
 __all__ = ["is_layer_config", "load_layer_config", "run_layer_config", "LayerOutcome"]
 
@@ -407,13 +408,17 @@ def _layer_writer(out, grid, floor, attrs, save_times, n_tracers, ck_file, resum
         try:
             writer = NetCDFWriterND.resume(out, resumed_at, grid, floor, expected_snapshots=save_times.size,
                                            n_tracers=n_tracers)
+        except OutputPathError:                     # no room for the rewritten file
+            raise
         except Exception as exc:                    # an unreadable or foreign file
             raise ConfigError("--resume", f"cannot reopen {out}: {type(exc).__name__}: {exc}; run without "
                               "--resume to start over") from None
         return writer, save_times[save_times >= resumed_at]
     if os.path.exists(ck_file):
         os.remove(ck_file)                            # stale: belongs to an earlier run
-    return NetCDFWriterND(out, grid, floor, attrs, expected_snapshots=save_times.size, n_tracers=n_tracers), save_times
+    writer = NetCDFWriterND(out, grid, floor, attrs, expected_snapshots=save_times.size, n_tracers=n_tracers)
+    writer.check_space()                              # a full disk refused before the run
+    return writer, save_times
 
 
 def _vtk_writer(vtk_stem, grid, keep_before):
@@ -449,6 +454,9 @@ def _closing_on_failure(writer, out, ck_file, last):
         exc.args = (f"interrupted {how}: {out} keeps {writer.n} snapshot(s); {cont}",)
         exc.exit_code = 128 + int(getattr(exc, "signal_number", 2))
         raise
+    except OSError as exc:
+        from .runner import write_failed
+        raise write_failed(writer, exc) from exc
     except BaseException:
         writer.close("failed")
         raise

@@ -237,6 +237,18 @@ class NetCDFWriter:
         self._h5 = None
         self.closed = True
 
+    def close_as_is(self):
+        """Close the file without writing to it (its status stays "running"): after a failed
+        write on a full disk, where even a new status attribute may need space that HDF5 cannot
+        get and a failed metadata write would leave the file unreadable.  Every snapshot
+        appended so far was flushed, so the file on disk is complete."""
+        if self.closed:
+            return
+        if self._h5 is not None:
+            self._h5.close()
+            self._h5 = None
+        self.closed = True
+
     def __enter__(self):
         return self
 
@@ -247,12 +259,37 @@ class NetCDFWriter:
     def _chunk_rows(self, bytes_per_row):
         return int(max(1, min(max(self.expected, self.n), _CHUNK_BYTES // max(8, bytes_per_row))))
 
+    def planned_bytes(self) -> int:
+        """The size [bytes] of the file when it appears: the row chunks of every time-dependent
+        variable are allocated for the whole planned run (module docstring), plus the
+        coordinates, the attributes and an allowance of 64 KiB for HDF5's own structures."""
+        total = 64 * 1024 + sum(len(str(v)) for v in self.attrs.values())
+        for name, (dims, _, _) in self.schema.items():
+            per_row = 8 * int(np.prod([self.dim_sizes[d] for d in dims[1:]], dtype=np.int64))
+            if dims[0] == "time":
+                rows = self._chunk_rows(per_row)
+                total += -(-max(self.expected, self.n) // rows) * rows * per_row
+            else:
+                total += 8 * int(np.prod([self.dim_sizes[d] for d in dims], dtype=np.int64))
+        return int(total)
+
+    def check_space(self, option: str = "--out") -> None:
+        """Refuse (:class:`bsrflow.io.paths.OutputPathError`, one line naming ``option``) a file
+        that the free space of its folder cannot hold (:meth:`planned_bytes`): checked before a
+        run starts and before the file is written, so that a full disk is a clear error rather
+        than HDF5's failure in the middle of a write."""
+        from .paths import check_free_space
+
+        check_free_space(self.path, self.planned_bytes(), option,
+                         f"{max(self.expected, self.n)} snapshots of {len(self._time_vars)} variables")
+
     def _publish(self):
         """Write the whole file (schema + rows in memory) to a temporary file, rename it over the
         target, and reopen it for appending."""
         import h5netcdf
         import h5py
 
+        self.check_space()
         if self._h5 is not None:
             self._h5.close()
             self._h5 = None

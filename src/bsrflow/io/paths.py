@@ -24,12 +24,14 @@ from __future__ import annotations
 
 import errno
 import os
+import shutil
 import stat
 import tempfile
 
 from .config import ConfigError
 
-__all__ = ["OutputPathError", "check_output_file", "check_output_dir", "check_distinct", "FILE_RULE", "DIR_RULE"]
+__all__ = ["OutputPathError", "check_output_file", "check_output_dir", "check_distinct", "check_free_space",
+           "FILE_RULE", "DIR_RULE"]
 
 FILE_RULE = "its folder must exist"
 """For ``--help`` texts of output-file options."""
@@ -133,3 +135,27 @@ def check_distinct(*named) -> None:
         if key in seen:
             raise OutputPathError(option, f"{os.fspath(path)} is also given as {seen[key]}; give different paths")
         seen[key] = option
+
+
+def _size(n: float) -> str:
+    for unit in ("bytes", "KiB", "MiB", "GiB"):
+        if n < 1024 or unit == "GiB":
+            return f"{n:.0f} {unit}" if unit == "bytes" else f"{n:.1f} {unit}"
+        n /= 1024
+    return f"{n:.1f} GiB"
+
+
+def check_free_space(path, needed_bytes: int, option: str, what: str = "") -> None:
+    """Refuse an output ``path`` of about ``needed_bytes`` that the free space of its folder
+    cannot hold: :class:`OutputPathError` naming ``option``, the sizes and what the output
+    holds (``what``), before anything is written."""
+    folder = os.path.dirname(os.path.abspath(os.fspath(path)))
+    try:
+        free = shutil.disk_usage(folder).free
+    except OSError:
+        return                                      # no figure to check against: let the write tell
+    if needed_bytes > free:
+        held = f" ({what})" if what else ""
+        raise OutputPathError(option, f"{os.fspath(path)} needs about {_size(needed_bytes)}{held} but "
+                                      f"{folder} has {_size(free)} free; free some space, choose another "
+                                      f"folder or save fewer snapshots")

@@ -24,6 +24,7 @@ How a resumed run equals an uninterrupted one bit for bit
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import time as _time
 import tomllib
@@ -36,7 +37,7 @@ from ..physics.column import initial_density
 from .checkpoint import Checkpoint, checkpoint_path, read_checkpoint, write_checkpoint
 from .config import Config, ConfigError, saved_config
 from .netcdf import NetCDFWriter, finished_snapshots
-from .paths import check_output_file
+from .paths import OutputPathError, check_output_file
 
 __all__ = ["run_config", "RunOutcome", "column_simulation"]
 
@@ -154,6 +155,7 @@ def run_config(config: Config, out, *, resume: bool = False, progress=None, log=
             os.remove(ckpt_file)                       # stale: belongs to an earlier run
         attrs = {"config": config.to_toml(), "scheme": sim.scheme.name, "diameter": float(setup.diameter)}
         writer = NetCDFWriter(out, grid.x, grid.dx, n_tr, floor, attrs, expected_snapshots=save_times.size)
+        writer.check_space()                          # a full disk refused before the run
         u0, rho0, tr0 = np.zeros(grid.n_cells), initial_density(setup, grid.x), setup.sphere_centres()
 
     last_ckpt = [t0 if resume else None]             # time of the checkpoint on disk
@@ -272,6 +274,8 @@ def _reopen_output(out, t_ck, grid, n_tr, floor, save_times, config: Config):
     expected = save_times[save_times < t_ck]
     try:
         writer = NetCDFWriter.resume(out, t_ck, grid.x, grid.dx, n_tr, floor, expected_snapshots=save_times.size)
+    except OutputPathError:                        # no room for the rewritten file: one line as it is
+        raise
     except Exception as exc:                       # unreadable or foreign file
         raise ConfigError("--resume", f"cannot reopen {out}: {type(exc).__name__}: {exc}") from None
     kept = writer.series("time")
@@ -295,9 +299,33 @@ def _closing_on_failure(writer, stop_attrs, interrupted):
     except KeyboardInterrupt as exc:
         interrupted(exc)
         raise
+    except OSError as exc:
+        raise write_failed(writer, exc) from exc
     except BaseException as exc:
         writer.close(f"failed: {type(exc).__name__}: {exc}")
         raise
+
+
+def write_failed(writer, exc: OSError) -> OSError:
+    """A write that failed in the middle of a run (a full disk, a file system gone read-only, a
+    checkpoint or VTK file that cannot be written): close ``writer`` with status "failed: ...",
+    or on a full (or read-only) disk as it is (status "running": writing the status could
+    leave the file unreadable; :meth:`NetCDFWriter.close_as_is`), and return an OSError whose one-line message says what
+    failed and what the output keeps (`bsrflow` prints it, exit code 1)."""
+    full = exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EIO)
+    try:
+        if full:              # a new status needs space: a failed metadata write breaks the file
+            writer.close_as_is()
+        else:
+            writer.close(f"failed: {exc}")
+    except Exception:
+        pass
+    times = writer.series("time")
+    kept = f"{writer.path} keeps {writer.n} snapshot(s)" + (f" up to t = {times[-1]:.6g} s" if writer.n else "")
+    if full and writer.n:
+        kept += ' (its status attribute left at "running")'
+    what = f"{exc.strerror or exc}" + (f": {exc.filename}" if exc.filename else "")
+    return OSError(exc.errno, f"{what}; the run stopped, {kept}")
 
 
 def _interrupted(exc, writer, out, resume, config, last_ckpt_t, ckpt_file, ckpt_times, t0):
@@ -362,6 +390,7 @@ def _run_packing_config(config: Config, out, *, resume=False, progress=None, log
         attrs = {"config": config.to_toml(), "scheme": f"packing_{disc.name}", "diameter": float(setup.diameter),
                  "kernel": "packing", "formulation": disc.name, "range_over_d": float(disc.law.range_over_d)}
         writer = NetCDFWriter(out, grid.x, grid.dx, n_tr, floor, attrs, expected_snapshots=save_times.size)
+        writer.check_space()                          # a full disk refused before the run
     if setup.stiffness_factor < 1.0:
         log(stiffness_note(setup))
     last_ckpt = [t0 if resume else None]             # time of the checkpoint on disk

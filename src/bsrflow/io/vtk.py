@@ -52,6 +52,8 @@ def _replace_atomically(path: Path, write) -> None:
     try:
         write(tmp)
         os.replace(tmp, path)
+    except OSError as exc:                  # name the file (meshio's writes name none)
+        raise OSError(exc.errno, f"cannot write the VTK file ({exc.strerror or exc})", str(path)) from exc
     finally:
         if tmp.exists():
             tmp.unlink()
