@@ -190,3 +190,39 @@ def test_layer_resume_refuses_a_foreign_or_unreadable_output(tmp_path, capsys):
     assert main(argv) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "cannot reopen" in err[0] and "--resume" in err[0]
+
+
+@pytest.mark.parametrize("text", [
+    "[layer]\nkind = 'tapped_layer'\ndim = 2\n",
+    "[layer]\nkind = 'vibrated_box'\ndim = 3\nsides = 'wall'\n",
+    "[layer]\nkind = 'packing_bed'\ndim = 2\ngamma = 2.5\n[output]\ncheckpoint_every = 0.05\n"
+    "[tracers]\npositions = [[0.01, 0.005], [0.02, 0.01]]\n",
+], ids=["tapped_layer", "vibrated_box", "packing_bed"])
+def test_resolved_config_lists_every_field_and_loads_to_the_same_setup(tmp_path, text):
+    """The output's `config_resolved` holds every field, defaults included, and loading it
+    gives the scenario that ran (the user's own text stays in `config`)."""
+    import dataclasses
+    (tmp_path / "a.toml").write_text(text)
+    cfg = load_layer_config(tmp_path / "a.toml")
+    resolved = cfg.resolved_text()
+    for f in dataclasses.fields(cfg.setup):
+        assert f"{f.name} = " in resolved or f"# {f.name}: not given" in resolved, f.name
+    (tmp_path / "b.toml").write_text(resolved)
+    again = load_layer_config(tmp_path / "b.toml")
+    assert again.setup == cfg.setup
+    assert (again.vtk, again.checkpoint_every) == (cfg.vtk, cfg.checkpoint_every)
+    assert (again.tracers is None) == (cfg.tracers is None)
+    if cfg.tracers is not None:
+        np.testing.assert_array_equal(again.tracers, cfg.tracers)
+    assert again.resolved_text() == resolved
+
+
+def test_layer_output_carries_the_resolved_config(tmp_path):
+    cfg_file = tmp_path / "bed.toml"
+    cfg_file.write_text("[layer]\nkind = 'packing_bed'\ndim = 2\nbox_width = 0.01\nbed_height = 0.01\n"
+                        "t_end = 0.002\nsave_every = 0.001\n")
+    assert main(["run", str(cfg_file), "--out", str(tmp_path / "bed.nc"), "--quiet"]) == 0
+    with xr.open_dataset(tmp_path / "bed.nc") as ds:
+        assert ds.attrs["config"] == cfg_file.read_text()
+        assert "restitution = 0.9\n" in ds.attrs["config_resolved"]
+        assert "stiffness = 50000.0\n" in ds.attrs["config_resolved"]

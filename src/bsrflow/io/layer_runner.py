@@ -69,12 +69,49 @@ class LayerConfig:
     text: str
     tracers: np.ndarray | None = None
 
+    def resolved_text(self) -> str:
+        """The config with every field of the scenario, the defaults included, as TOML (the
+        output's ``config_resolved`` attribute: what ran, in full; ``config`` is the file as
+        given).  Loading it gives the same scenario."""
+        import json
+        kind = {v: k for k, v in _kind_classes().items()}[type(self.setup)]
+        lines = ["[layer]", f"kind = {json.dumps(kind)}"]
+        for f in dataclasses.fields(self.setup):
+            value = getattr(self.setup, f.name)
+            if value is None:
+                lines.append(f"# {f.name}: not given (derived by the scenario)")
+            else:
+                lines.append(f"{f.name} = {_toml_value(value)}")
+        lines += ["[output]", f"vtk = {_toml_value(self.vtk)}"]
+        if self.checkpoint_every is None:
+            lines.append("# checkpoint_every: not given (about every 0.1 s on snapshot times)")
+        else:
+            lines.append(f"checkpoint_every = {_toml_value(self.checkpoint_every)}")
+        if self.tracers is not None:
+            rows = ", ".join("[" + ", ".join(_toml_value(float(v)) for v in row) + "]" for row in self.tracers)
+            lines += ["[tracers]", f"positions = [{rows}]"]
+        return "\n".join(lines) + "\n"
+
+
+def _toml_value(value) -> str:
+    import json
+    if isinstance(value, (bool, np.bool_)):
+        return "true" if value else "false"
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    if isinstance(value, (float, np.floating)):
+        return repr(float(value))
+    return json.dumps(str(value))
+
+
+def _kind_classes() -> dict:
+    from ..physics.packing_bed import PackingBed
+    from ..physics.scenarios_nd import TappedLayer, VibratedBox
+    return {"tapped_layer": TappedLayer, "vibrated_box": VibratedBox, "packing_bed": PackingBed}
+
 
 def load_layer_config(path) -> LayerConfig:
     """Read and check a layer config (module docstring); ConfigError on the first problem."""
-    from ..physics.packing_bed import PackingBed
-    from ..physics.scenarios_nd import TappedLayer, VibratedBox
-
     with open(path, "rb") as fh:
         raw = fh.read()
     data = tomllib.loads(raw.decode("utf-8"))
@@ -87,7 +124,7 @@ def load_layer_config(path) -> LayerConfig:
     kind = layer.pop("kind", "tapped_layer")
     if kind not in KINDS:
         raise ConfigError("layer.kind", f"{kind!r} is not one of {', '.join(KINDS)}")
-    cls = {"tapped_layer": TappedLayer, "vibrated_box": VibratedBox, "packing_bed": PackingBed}[kind]
+    cls = _kind_classes()[kind]
     names = {f.name: f for f in dataclasses.fields(cls)}
     kw = {}
     for key, value in layer.items():
@@ -234,7 +271,7 @@ def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=
     floor = lambda t: motion.state(t)[0]  # noqa: E731
     t0, steps0, resumed, wall0 = 0.0, 0, None, 0.0
     u0, rho0 = setup.initial_state(grid)
-    attrs = {"config": cfg.text, "scheme": scheme.name, "dimension": grid.dim}
+    attrs = {"config": cfg.text, "config_resolved": cfg.resolved_text(), "scheme": scheme.name, "dimension": grid.dim}
     tracers = None if cfg.tracers is None else np.array(cfg.tracers, dtype=float)
     n_tr = 0 if tracers is None else tracers.shape[0]
     if resume:
@@ -286,8 +323,8 @@ def _run_packing_bed(cfg: LayerConfig, out, *, resume=False, progress=None, log=
     motion = disc.motion
     floor = lambda t: motion.state(t)[0]  # noqa: E731
     t0, steps0, resumed, wall0 = 0.0, 0, None, 0.0
-    attrs = {"config": cfg.text, "scheme": f"packing_{disc.name}", "kernel": "packing", "dimension": grid.dim,
-             "scenario": f"packing_bed_{grid.dim}d"}
+    attrs = {"config": cfg.text, "config_resolved": cfg.resolved_text(), "scheme": f"packing_{disc.name}",
+             "kernel": "packing", "dimension": grid.dim, "scenario": f"packing_bed_{grid.dim}d"}
     if resume:
         ck = _read_layer_checkpoint(ck_file, cfg)
         try:
