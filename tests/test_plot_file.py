@@ -139,3 +139,32 @@ def test_layer_files_are_plotted_with_the_horizontal_average(tmp_path, capsys):
     assert capsys.readouterr().err == ""
     for kind in KINDS:
         assert os.path.getsize(tmp_path / "fig" / f"l_{kind}.png") > 1000
+
+
+@pytest.mark.parametrize("status, shown", [("running", "status: running"),
+                                           ("interrupted by Ctrl-C (SIGINT) after 8 snapshots",
+                                            "status: interrupted by Ctrl-C (SIGINT) after 8 snapshots"),
+                                           ("ok", None)])
+def test_figures_of_an_unfinished_run_say_so_in_their_title(tmp_path, monkeypatch, status, shown):
+    """The stderr warning is lost once the PNGs are passed on: every figure's title says it."""
+    import matplotlib.figure
+
+    titles = []
+    real = matplotlib.figure.Figure.savefig
+
+    def recording(fig, *a, **k):
+        titles.append(fig._suptitle.get_text() if fig._suptitle is not None else "")
+        return real(fig, *a, **k)
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", recording)
+    ds = synthetic(nt=8)
+    ds.attrs["status"] = status
+    path = tmp_path / "run.nc"
+    ds.to_netcdf(path)
+    plot_file(str(path), str(tmp_path / "f"), log=None)
+    assert len(titles) == len(KINDS)
+    for title in titles:
+        if shown is None:
+            assert "UNFINISHED" not in title
+        else:
+            assert f"UNFINISHED RUN ({shown}): 8 snapshot(s) up to t = 0.4 s" in title, title

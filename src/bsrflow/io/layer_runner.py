@@ -271,7 +271,8 @@ def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=
     floor = lambda t: motion.state(t)[0]  # noqa: E731
     t0, steps0, resumed, wall0 = 0.0, 0, None, 0.0
     u0, rho0 = setup.initial_state(grid)
-    attrs = {"config": cfg.text, "config_resolved": cfg.resolved_text(), "scheme": scheme.name, "dimension": grid.dim}
+    attrs = {"config": cfg.text, "config_resolved": cfg.resolved_text(), "scheme": scheme.name, "dimension": grid.dim,
+             "diameter": float(setup.diameter)}
     tracers = None if cfg.tracers is None else np.array(cfg.tracers, dtype=float)
     n_tr = 0 if tracers is None else tracers.shape[0]
     if resume:
@@ -324,7 +325,8 @@ def _run_packing_bed(cfg: LayerConfig, out, *, resume=False, progress=None, log=
     floor = lambda t: motion.state(t)[0]  # noqa: E731
     t0, steps0, resumed, wall0 = 0.0, 0, None, 0.0
     attrs = {"config": cfg.text, "config_resolved": cfg.resolved_text(), "scheme": f"packing_{disc.name}",
-             "kernel": "packing", "dimension": grid.dim, "scenario": f"packing_bed_{grid.dim}d"}
+             "kernel": "packing", "dimension": grid.dim, "scenario": f"packing_bed_{grid.dim}d",
+             "diameter": float(setup.diameter)}
     if resume:
         ck = _read_layer_checkpoint(ck_file, cfg)
         try:

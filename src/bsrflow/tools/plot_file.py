@@ -22,8 +22,9 @@ ParaView, from the VTK files).
 Heights are in units of d when the file has a ``diameter`` attribute, else in metres.  A file
 still being written (or cut short) is read as far as it goes: snapshots whose time is missing
 (netCDF fill value or NaN) are dropped, missing values inside variables are left as gaps, and a
-figure whose variables are absent is skipped with a note on stderr.  A warning line on stderr
-says when the file's ``status`` attribute is not "ok" (``running``: the run was killed or is
+figure whose variables are absent is skipped with a note on stderr.  A warning line on stderr,
+and a second line of every figure's title, say when the file's ``status`` attribute is not
+"ok" (``running``: the run was killed or is
 still going) and when ρ is NaN everywhere; the figures are drawn all the same.  Labels use the variables'
 ``long_name``/``units`` attributes when present.
 """
@@ -162,6 +163,12 @@ def plot_file(path, out: str | None = None, log=print) -> list[str]:
         note(f"warning: {path}: status \"running\": the run was killed (or is still going); {upto}")
     elif status is not None and status != "ok":
         note(f"warning: {path}: the run did not finish (status: {' '.join(str(status).split())}); {upto}")
+    if status is not None and status != "ok":
+        # the figures say it too: a PNG is often looked at without the terminal's warning
+        said = " ".join(str(status).split())
+        said = said if len(said) <= 70 else said[:67] + "..."
+        title += (f"\nUNFINISHED RUN (status: {said}): "
+                  f"{t.size} snapshot(s) up to t = {t[-1]:.6g} s")
     rho_all = series("rho")
     if rho_all is not None and not np.isfinite(rho_all).any():
         note(f"warning: {path}: rho is NaN in every snapshot: the density figure is empty")
