@@ -296,3 +296,36 @@ def test_adapter_with_the_real_config_module():
         back = pickle.loads(dumps(src.with_fixed({"m0": 300.0})))
         assert back.uses_config_module and back.column_setup({"f": 12}).m0 == 300.0
         assert back.setup_and_scheme({"f": 12})[0] == src.setup_and_scheme({"f": 12, "m0": 300.0})[0]
+
+
+def test_an_interrupted_sweep_writes_its_finished_cases(tmp_path, monkeypatch, capsys):
+    """Ctrl-C after the first finished case (the interrupt raised in the loop over the finished
+    futures): exit 130, one line, and --out holds that case's results with the others marked
+    "interrupted" (before, every finished case was lost)."""
+    import dask.distributed
+    import xarray as xr
+
+    from bsrflow.cli import main
+
+    real = dask.distributed.as_completed
+
+    def one_then_interrupt(futures):
+        it = iter(real(futures))
+        yield next(it)
+        raise KeyboardInterrupt()
+
+    monkeypatch.setattr(dask.distributed, "as_completed", one_then_interrupt)
+    out = tmp_path / "s.nc"
+    args = ["sweep", "--param", "a_over_d=0.5,0.75,1.0", "--workers", "1", "--out", str(out)]
+    for k, v in TINY.items():
+        args += ["--set", f"{k}={v}"]
+    code = main(args)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 130 and len(err) == 1, err
+    assert err[0] == (f"bsrflow sweep: interrupted by Ctrl-C (SIGINT) after 1 of 3 cases: {out} keeps the "
+                      "finished cases' results (the others have status \"interrupted\"; run them again)"), err[0]
+    with xr.open_dataset(out) as ds:
+        status = list(ds["status"].values)
+        assert sorted(status) == ["interrupted", "interrupted", "ok"], status
+        assert ds.attrs["interrupted"] == "after 1 of 3 cases" and ds.attrs["cases_ok"] == 1
+        assert np.isfinite(ds["top_max"].values[status.index("ok")])

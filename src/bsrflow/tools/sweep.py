@@ -17,7 +17,8 @@
 * A case that fails is recorded with its status and message and the others still run:
   ``invalid`` (a parameter value outside its valid range), ``stopped`` (the solver stopped early,
   :class:`~bsrflow.numerics.solver.SimulationError`), ``failed`` (any other exception, or a lost
-  worker).
+  worker).  Ctrl-C or SIGTERM stops the sweep: the finished cases are written to ``--out``
+  (the others with status ``interrupted``; attribute ``interrupted``), exit code 130 / 143.
 * The results are gathered into one :class:`xarray.Dataset` with one dimension per swept
   parameter (coordinates with ``units``/``long_name``), written as netCDF (``--out``), and a figure
   of the top height against the first parameter, one line per value of the second (``--figure``).
@@ -240,7 +241,10 @@ def run_sweep(params: dict, source: SetupSource | None = None, scheduler: str | 
                                silence_logs=logging.ERROR)
         client = Client(cluster)
     results = [None] * len(cases)
+    interrupted = None
+    address = scheduler
     try:
+        address = client.scheduler.address if scheduler is None else scheduler
         futures = client.map(run_case, [ov for _idx, ov in cases], source=source, pure=False)
         where = {f.key: i for i, f in enumerate(futures)}
         for done, fut in enumerate(as_completed(futures), start=1):
@@ -252,14 +256,27 @@ def run_sweep(params: dict, source: SetupSource | None = None, scheduler: str | 
             results[i] = res
             if log:
                 log(f"[{done}/{len(cases)}] {_case_label(cases[i][1])}: {_summary(res)}")
-        address = client.scheduler.address if scheduler is None else scheduler
+    except KeyboardInterrupt as exc:   # Ctrl-C or SIGTERM: keep the finished cases (below)
+        interrupted = exc
     finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+        try:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+        except KeyboardInterrupt as exc:   # the signal can also land while the cluster shuts down
+            interrupted = interrupted or exc
+    if interrupted is not None:
+        results = [r if r is not None else
+                   _empty_result("interrupted", "the sweep was interrupted before this case finished")
+                   for r in results]
     ds = to_dataset(params, cases, results, source)
     ds.attrs.update(scheduler=str(scheduler or f"LocalCluster ({n_workers} processes) at {address}"),
                     wall_time_s=time.perf_counter() - t0)
+    if interrupted is not None:
+        n_done = sum(r["status"] != "interrupted" for r in results)
+        ds.attrs["interrupted"] = f"after {n_done} of {len(cases)} cases"
+        interrupted.partial = ds          # the command writes it before it exits
+        raise interrupted
     return ds
 
 
@@ -348,7 +365,7 @@ def to_dataset(params: dict, cases, results, source: SetupSource | None = None):
         status[idx] = res["status"] if res is not None else "failed"
         error[idx] = res["error"] if res is not None else "no result"
     data["status"] = xr.Variable(names, status.astype(str),
-                                 attrs={"long_name": "case status: ok, invalid, stopped or failed"})
+                                 attrs={"long_name": "case status: ok, invalid, stopped, failed or interrupted"})
     data["error"] = xr.Variable(names, error.astype(str), attrs={"long_name": "error message ('' if ok)"})
     source = source or SetupSource()
     try:
@@ -516,7 +533,21 @@ def _main(args) -> int:
     print(f"bsrflow sweep: {n} case(s){model} over {', '.join(params)} on {where}"
           + (f"; config {args.config} ({'bsrflow.io.config' if source.uses_config_module else 'fallback reader'})"
              if args.config else ""))
-    ds = run_sweep(params, source, scheduler=args.scheduler, n_workers=workers)
+    from ..io.commands import _sigterm_as_interrupt
+    try:
+        with _sigterm_as_interrupt():
+            ds = run_sweep(params, source, scheduler=args.scheduler, n_workers=workers)
+    except KeyboardInterrupt as exc:
+        partial = getattr(exc, "partial", None)
+        how = "by SIGTERM" if getattr(exc, "signal_name", "") == "SIGTERM" else "by Ctrl-C (SIGINT)"
+        if partial is None:
+            exc.args = (f"interrupted {how} before any case finished; {args.out} was not written",)
+        else:
+            write_dataset(partial, args.out)
+            exc.args = (f"interrupted {how} {partial.attrs['interrupted']}: {args.out} keeps the finished "
+                        "cases' results (the others have status \"interrupted\"; run them again)",)
+        exc.exit_code = 128 + int(getattr(exc, "signal_number", 2))
+        raise
     write_dataset(ds, args.out)
     print(f"wrote {args.out}")
     if args.figure:
