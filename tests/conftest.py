@@ -22,22 +22,26 @@ def one_numba_thread():
 
 @pytest.fixture
 def run_layer_file(tmp_path):
-    """``run(text, stem, scenario)``: write a layer config, run it with ``bsrflow run --quiet``
-    into ``<stem>.nc`` and open the file, after the checks every 2-D layer run shares: status ok,
-    the scenario, ``rho`` on (time, x, z) in kg m-2, 13 snapshots, ρ >= 0, mass conserved to
-    1e-12.  Returns the open dataset (the caller closes it)."""
+    """``run(text, stem, scenario, per_depth=False)``: write a layer config, run it with
+    ``bsrflow run --quiet`` into ``<stem>.nc`` and open the file, after the checks every 2-D layer
+    run shares: status ok, the scenario, ``rho`` on (time, x, z) in kg m-2 with the mass in kg
+    (a planar continuum) or, ``per_depth`` (the packing bed, uniform in depth), in kg m-3 with
+    the mass in kg m-1, 13 snapshots, ρ >= 0, mass conserved to 1e-12.  Returns the open
+    dataset (the caller closes it)."""
     import xarray as xr
 
     from bsrflow.cli import main
 
-    def run(text, stem, scenario):
+    def run(text, stem, scenario, per_depth=False):
         cfg = tmp_path / f"{stem}.toml"
         cfg.write_text(text)
         out = tmp_path / f"{stem}.nc"
         assert main(["run", str(cfg), "--out", str(out), "--quiet"]) == 0
         ds = xr.open_dataset(out)
         assert ds.attrs["status"] == "ok" and ds.attrs["scenario"] == scenario
-        assert ds["rho"].dims == ("time", "x", "z") and ds["rho"].attrs["units"] == "kg m-2"
+        assert ds["rho"].dims == ("time", "x", "z")
+        assert (ds["rho"].attrs["units"], ds["mass"].attrs["units"]) == (("kg m-3", "kg m-1") if per_depth
+                                                                         else ("kg m-2", "kg"))
         assert ds.sizes["time"] == 13 and float(ds["rho"].min()) >= 0.0
         np.testing.assert_allclose(ds["mass"].values, ds["mass"].values[0], rtol=1e-12)
         return ds

@@ -39,7 +39,7 @@ positions = [[0.003, 0.0025], [0.007, 0.0125]]
 def test_packing_bed_config_runs_into_netcdf_and_vtk(tmp_path, run_layer_file):
     import meshio
 
-    ds = run_layer_file(CONFIG, "bed", "packing_bed_2d")
+    ds = run_layer_file(CONFIG, "bed", "packing_bed_2d", per_depth=True)
     assert ds.attrs["kernel"] == "packing"
     setup = load_layer_config(tmp_path / "bed.toml").setup
     assert ds["mass"].values[0] == pytest.approx(setup.mass(), rel=1e-14)
@@ -48,7 +48,7 @@ def test_packing_bed_config_runs_into_netcdf_and_vtk(tmp_path, run_layer_file):
     assert rise.max() > 0.1 * setup.diameter
     assert float(np.abs(ds["u_x"]).max()) > 0.0          # the undulated top is not uniform in x
     last = meshio.read(tmp_path / "bed_vtk" / "layer_000012.vtu")
-    np.testing.assert_array_equal(last.cell_data["density [kg/m^2]"][0], ds["rho"].values[-1].ravel())
+    np.testing.assert_array_equal(last.cell_data["density [kg/m^3]"][0], ds["rho"].values[-1].ravel())
     # the tracers: written in the lab frame, moved by the bed (the upper one flew with it)
     assert ds["tracer_z"].dims == ("time", "tracer") and ds["tracer_z"].attrs["units"] == "m"
     np.testing.assert_allclose(ds["tracer_z"].values[0] - ds["floor"].values[0], [0.0025, 0.0125], rtol=1e-12)

@@ -338,8 +338,9 @@ def _run_packing_bed(cfg: LayerConfig, out, *, resume=False, progress=None, log=
         t0, steps0, resumed, wall0 = float(ck.t), int(ck.steps), float(ck.t), float(ck.wall_time)
         disc.counters[0] = steps0
         disc.steps = steps0
-    writer, save_times = _layer_writer(out, grid, floor, attrs, save_times, n_tr, ck_file, t0 if resume else None)
-    vtk_writer = _vtk_writer(vtk_stem, grid, t0 if resume else None)
+    writer, save_times = _layer_writer(out, grid, floor, attrs, save_times, n_tr, ck_file, t0 if resume else None,
+                                       per_depth=True)
+    vtk_writer = _vtk_writer(vtk_stem, grid, t0 if resume else None, per_depth=True)
     observers = [writer] + ([vtk_writer] if vtk_writer else [])
     if setup.stiffness_factor < 1.0:
         log(f"reduced contact stiffness: K x {setup.stiffness_factor:.4g}, impact Mach number "
@@ -432,9 +433,11 @@ def _checkpoint_tracers(ck: Checkpoint, tracers, ck_file):
     return ck.tracers
 
 
-def _layer_writer(out, grid, floor, attrs, save_times, n_tracers, ck_file, resumed_at):
+def _layer_writer(out, grid, floor, attrs, save_times, n_tracers, ck_file, resumed_at, per_depth=False):
     """(the n-D netCDF writer, the save times still to come) of a layer run: a new file (a stale
-    checkpoint of an earlier run removed), or with ``resumed_at`` [s] the file kept up to it."""
+    checkpoint of an earlier run removed), or with ``resumed_at`` [s] the file kept up to it.
+    ``per_depth``: a 2-D run of a material uniform in depth (the packing bed; units per metre of
+    depth, :func:`bsrflow.io.netcdf.schema_nd`)."""
     from .netcdf import NetCDFWriterND
     from .runner import output_attrs
     if resumed_at is not None:
@@ -446,7 +449,7 @@ def _layer_writer(out, grid, floor, attrs, save_times, n_tracers, ck_file, resum
                               "start over")
         try:
             writer = NetCDFWriterND.resume(out, resumed_at, grid, floor, expected_snapshots=save_times.size,
-                                           n_tracers=n_tracers)
+                                           n_tracers=n_tracers, per_depth=per_depth)
         except OutputPathError:                     # no room for the rewritten file
             raise
         except Exception as exc:                    # an unreadable or foreign file
@@ -455,12 +458,13 @@ def _layer_writer(out, grid, floor, attrs, save_times, n_tracers, ck_file, resum
         return writer, save_times[save_times >= resumed_at]
     if os.path.exists(ck_file):
         os.remove(ck_file)                            # stale: belongs to an earlier run
-    writer = NetCDFWriterND(out, grid, floor, attrs, expected_snapshots=save_times.size, n_tracers=n_tracers)
+    writer = NetCDFWriterND(out, grid, floor, attrs, expected_snapshots=save_times.size, n_tracers=n_tracers,
+                            per_depth=per_depth)
     writer.check_space()                              # a full disk refused before the run
     return writer, save_times
 
 
-def _vtk_writer(vtk_stem, grid, keep_before):
+def _vtk_writer(vtk_stem, grid, keep_before, per_depth=False):
     """The VTK observer of a layer run (None without ``vtk_stem``); a resumed run keeps the
     files before ``keep_before`` [s]."""
     if not vtk_stem:
@@ -468,7 +472,7 @@ def _vtk_writer(vtk_stem, grid, keep_before):
     from .paths import check_output_dir
     from .vtk import VTKWriter
     check_output_dir(vtk_stem, "output.vtk (its folder, --out's name with _vtk)", create=True)
-    w = VTKWriter(grid, os.path.join(vtk_stem, "layer"))
+    w = VTKWriter(grid, os.path.join(vtk_stem, "layer"), per_depth=per_depth)
     if keep_before is not None:
         w.keep_before(keep_before)
     return w

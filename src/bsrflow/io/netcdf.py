@@ -333,21 +333,25 @@ class NetCDFWriter:
 _AXES = {1: ("z",), 2: ("x", "z"), 3: ("x", "y", "z")}
 
 
-def schema_nd(dim: int, n_tracers: int = 0) -> dict:
+def schema_nd(dim: int, n_tracers: int = 0, per_depth: bool = False) -> dict:
     """Variables of an n-D run's file (:class:`NetCDFWriterND`), dim = 1 (axis z: a column),
     2 (x, z) or 3 (x, y, z; z vertical, from the floor): name -> (dims, units, long_name).  With tracers
     (``n_tracers`` > 0) also ``tracer`` (the index) and ``tracer_x`` (, ``tracer_y``),
     ``tracer_z`` (time, tracer) [m]: their positions, the height in the lab frame as the 1-D
-    file's ``tracer_height``."""
+    file's ``tracer_height``.  A 2-D run is either a planar continuum (the seed kernel's layers:
+    ``rho`` in kg m-2, mass in kg) or, with ``per_depth``, a 3-D material uniform in y (the
+    packing bed: ``rho`` in kg m-3, mass and kinetic energy per metre of depth)."""
     axes = _AXES[dim]
-    per = "m-1" if dim == 2 else ""            # 2-D: per unit depth
+    depth = per_depth and dim == 2
+    per = "m-1" if depth else ""
     out = {"time": (("time",), "s", "simulated time")}
     for a in axes:
         where = "height above the floor" if a == "z" else f"horizontal position ({a})"
         out[a] = ((a,), "m", f"{where} of the cell centre (floor frame)")
-    out["rho"] = (("time",) + axes, f"kg m-{dim}", {1: "line density (mass per unit length)",
-                                                   2: "density (mass per unit area)",
-                                                   3: "density (mass per unit volume)"}[dim])
+    out["rho"] = (("time",) + axes, "kg m-3" if depth else f"kg m-{dim}",
+                  "density (mass per unit volume, uniform in depth)" if depth else
+                  {1: "line density (mass per unit length)", 2: "density (mass per unit area)",
+                   3: "density (mass per unit volume)"}[dim])
     for a in axes:
         out[f"u_{a}"] = (("time",) + axes, "m s-1", f"velocity component {a} relative to the floor")
     if n_tracers > 0:
@@ -374,7 +378,7 @@ class NetCDFWriterND(NetCDFWriter):
     attrs, expected_snapshots : as for :class:`NetCDFWriter`; n_tracers : tracers per snapshot
     (0: the file has no tracer variables)."""
 
-    def __init__(self, path, grid, floor, attrs=None, expected_snapshots=None, n_tracers=0):
+    def __init__(self, path, grid, floor, attrs=None, expected_snapshots=None, n_tracers=0, per_depth=False):
         self.path = os.fspath(path)
         self.grid = grid
         self.dim = int(grid.dim)
@@ -390,7 +394,7 @@ class NetCDFWriterND(NetCDFWriter):
         if self.n_tracers > 0:
             coords["tracer"] = np.arange(self.n_tracers, dtype=np.int32)
             sizes["tracer"] = self.n_tracers
-        self._init_schema(schema_nd(self.dim, self.n_tracers), sizes, coords)
+        self._init_schema(schema_nd(self.dim, self.n_tracers, per_depth), sizes, coords)
         self.attrs["time_variables"] = " ".join(self._time_vars)
         self.cell_volume = float(grid.cell_volume)
         self.height = coords["z"] - grid.lower[-1]          # above the grid's floor
@@ -400,11 +404,11 @@ class NetCDFWriterND(NetCDFWriter):
         self.closed = False
 
     @classmethod
-    def resume(cls, path, keep_before, grid, floor, expected_snapshots=None, n_tracers=0):
+    def resume(cls, path, keep_before, grid, floor, expected_snapshots=None, n_tracers=0, per_depth=False):
         """Reopen a partial n-D file, keep its snapshots with time < ``keep_before`` [s] (the
         grid and the number of tracers must match) and return a writer that appends after them."""
         data, attrs = read_snapshots(path)
-        w = cls(path, grid, floor, expected_snapshots=expected_snapshots, n_tracers=n_tracers)
+        w = cls(path, grid, floor, expected_snapshots=expected_snapshots, n_tracers=n_tracers, per_depth=per_depth)
         if ("tracer_z" in data) != (w.n_tracers > 0) or ("tracer" in data and data["tracer"].size != w.n_tracers):
             raise ValueError(f"{os.fspath(path)}: its tracers differ from this run's")
         for a in w.axes:

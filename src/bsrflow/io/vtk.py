@@ -11,7 +11,8 @@ Fields (cell data; VTK has no units attribute, so the unit is part of the name):
 =====================  ===========  =============================================
 name                   units        meaning
 =====================  ===========  =============================================
-``density [kg/m^3]``   kg/m³        ρ (2-D runs: ``density [kg/m^2]``, per unit depth;
+``density [kg/m^3]``   kg/m³        ρ (2-D runs of the seed's kernel: ``density [kg/m^2]``, a planar continuum;
+                                    a 2-D packing bed: ``density [kg/m^3]``, uniform in depth;
                                     a column: ``density [kg/m]``, per unit length)
 ``velocity [m/s]``     m/s          (u_x, u_y, u_z) relative to the floor (2-D: u_y = 0;
                                     a column: (0, 0, u))
@@ -42,8 +43,11 @@ __all__ = ["VTKWriter", "density_name", "VELOCITY_NAME"]
 VELOCITY_NAME = "velocity [m/s]"
 
 
-def density_name(dim: int) -> str:
-    """The density field's name in a ``dim``-D run's files."""
+def density_name(dim: int, per_depth: bool = False) -> str:
+    """The density field's name in a ``dim``-D run's files (``per_depth``: a 2-D run of a 3-D
+    material uniform in depth, the packing bed, whose density is per unit volume)."""
+    if dim == 2 and per_depth:
+        return "density [kg/m^3]"
     return "density [kg/m]" if dim == 1 else f"density [kg/m^{dim}]"
 
 
@@ -67,11 +71,12 @@ class VTKWriter:
     Call ``writer(t, u, rho, tracers=None)`` at every save (u (n, *shape) [m/s], rho (*shape)
     [kg/m^n], tracers (n_tr, n) [m] floor frame or None; user layout).  ``files`` lists the ``.vtu`` written, ``pvd`` is the collection file."""
 
-    def __init__(self, grid, stem):
+    def __init__(self, grid, stem, per_depth: bool = False):
         import meshio  # noqa: F401  (fail here, before the run, if it is missing)
 
         self.grid = grid
         self.dim = int(grid.dim)
+        self.per_depth = bool(per_depth)
         if self.dim not in (1, 2, 3):
             raise ValueError(f"VTK output needs a 1-D, 2-D or 3-D grid (grid.dim = {self.dim})")
         self.stem = Path(os.fspath(stem))
@@ -123,7 +128,7 @@ class VTKWriter:
             vel[:, 0], vel[:, 2] = u[0].ravel(), u[1].ravel()
         else:
             vel[:] = u.reshape(3, -1).T
-        return {density_name(self.dim): rho.ravel(), VELOCITY_NAME: vel}
+        return {density_name(self.dim, self.per_depth): rho.ravel(), VELOCITY_NAME: vel}
 
     def __call__(self, t, u, rho, tracers=None):
         import meshio
