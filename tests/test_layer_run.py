@@ -56,6 +56,16 @@ def test_layer_config_runs_into_netcdf_and_vtk(tmp_path, run_layer_file):
     ("[layer]\nkind = 'packing_bed'\ndomain_height = 0.01\n", "layer.domain_height"),
     ("[layer]\nkind = 'packing_bed'\n[tracers]\npositions = [[0.01, 0.01, 0.5]]\n", "tracers.positions"),
     ("[layer]\nkind = 'packing_bed'\n[tracers]\npositions = [[0.01, 0.01]]\n", "tracers.positions"),
+    # ranges a review found open (2026-12-02): a box that is not whole cells was rounded silently,
+    # an absurd stiffness ran for ever or failed in its first step, a huge coordination was
+    # reported as an infinite stiffness
+    ("[layer]\nkind = 'packing_bed'\nbox_width = 0.0113\n", "layer.box_width"),
+    ("[layer]\nkind = 'tapped_layer'\nbox_width = 0.0491\n", "layer.box_width"),
+    ("[layer]\nkind = 'packing_bed'\nstiffness = 1e300\n", "layer.stiffness"),
+    ("[layer]\nkind = 'packing_bed'\nstiffness = 1e-3\n", "layer.stiffness"),
+    ("[layer]\nkind = 'packing_bed'\nstiffness = 1e-300\n", "layer.stiffness"),
+    ("[layer]\nkind = 'packing_bed'\ncoordination = 1e300\n", "layer.coordination"),
+    ("[layer]\nkind = 'packing_bed'\ndensity = 1e300\n", "layer.density"),
     # types and sizes (an audit found tracebacks here)
     ("[layer]\nkind = 'packing_bed'\ndim = 2.0\n", "layer.dim"),
     ("[layer]\nkind = 'packing_bed'\ngamma = true\n", "layer.gamma"),

@@ -42,6 +42,16 @@ from .packing import impact_speed, stiffness_factor_for_mach
 __all__ = ["PackingBed"]
 
 
+MAX_DENSITY = 1.0e5
+"""The largest material density a bed accepts [kg/m^3]."""
+MAX_STATIC_OVERLAP = 0.05
+"""The largest overlap per contact [d] the bed's weight may cause at its bottom: the packing law
+is the contact law's small-overlap limit."""
+MAX_STEPS = 1.0e9
+"""The most time steps a bed run may need (days of computing even on a small grid, at the
+measured 70-140 ns per cell-stage; :meth:`PackingBed._check_stiffness`)."""
+
+
 @dataclass
 class PackingBed:
     """The vibrated packing bed of the module docstring (SI units).
@@ -116,6 +126,41 @@ class PackingBed:
         if self.domain_height is not None and not (self.domain_height >= self.energy_bound_height()):
             raise ValueError(f"domain_height = {self.domain_height!r} m is outside the valid range "
                              f"[{self.energy_bound_height():.4g}, inf) m (energy bound)")
+        from .scenarios_nd import check_whole_cells
+        check_whole_cells("box_width", self.box_width, self.dx)
+        if self.coordination > 12.0:                     # the kissing number of equal spheres
+            raise ValueError(f"coordination = {self.coordination!r} is outside the valid range (0, 12]")
+        if self.density > MAX_DENSITY:
+            raise ValueError(f"density = {self.density!r} kg/m^3 is outside the valid range (0, {MAX_DENSITY:g}] "
+                             "(the densest solids are about 22 600 kg/m^3)")
+        self._check_stiffness()
+
+    def _check_stiffness(self):
+        """The contact stiffness in use, K·stiffness_factor, neither so soft that the bed's
+        weight overlaps its bottom contacts by more than 5 % of d (the packing law is a
+        small-overlap law; a softer bed also falls through cells in one step) nor so stiff that
+        the run needs more than 1e9 time steps.  ValueError naming ``stiffness`` with the
+        valid range at these settings."""
+        law = self.law()
+        k_used = self.stiffness * self.stiffness_factor
+        weight = law.close_packing_density * self.gravity * self.bed_height        # stress at the bottom [Pa]
+        overlap = weight / law.k1                                                  # δ = σ / k1 [m]
+        k_min = k_used * overlap / (MAX_STATIC_OVERLAP * self.diameter)
+        cfl = 0.4 / self.dim if self.cfl is None else self.cfl
+        speed_per_root_k = law.wave_speed() / math.sqrt(k_used)                     # c ∝ √K
+        steps = self.t_end * law.wave_speed() / (cfl * self.dx)
+        k_max = (MAX_STEPS * cfl * self.dx / (self.t_end * speed_per_root_k)) ** 2
+        unit = "" if self.stiffness_factor == 1.0 else f" (× stiffness_factor {self.stiffness_factor:g})"
+        if overlap > MAX_STATIC_OVERLAP * self.diameter:
+            raise ValueError(f"stiffness = {self.stiffness!r} N/m{unit} is outside the valid range at these settings, "
+                             f"[{k_min / self.stiffness_factor:.3g}, {k_max / self.stiffness_factor:.3g}] N/m: the "
+                             f"bed's weight would overlap its bottom contacts by {overlap / self.diameter:.3g} d "
+                             f"(at most {MAX_STATIC_OVERLAP:g} d)")
+        if steps > MAX_STEPS:
+            raise ValueError(f"stiffness = {self.stiffness!r} N/m{unit} is outside the valid range at these settings, "
+                             f"[{k_min / self.stiffness_factor:.3g}, {k_max / self.stiffness_factor:.3g}] N/m: the run "
+                             f"would take about {steps:.2g} time steps (at most {MAX_STEPS:.0e}; a stiffness_factor "
+                             "below 1 reduces it)")
 
     @property
     def dx(self) -> float:

@@ -73,7 +73,20 @@ from ..numerics.solver_nd import ResultND, SimulationND
 from .kernels_nd import BSRModelND, walton_braun_nd
 from .motion import HalfSineTaps, SinusoidalVibration
 
-__all__ = ["LayerSetup", "TappedLayer", "VibratedBox", "ScenarioRun", "run_scenario", "resting_profile"]
+__all__ = ["LayerSetup", "TappedLayer", "VibratedBox", "ScenarioRun", "run_scenario", "resting_profile",
+           "check_whole_cells"]
+
+
+def check_whole_cells(name: str, length: float, dx: float) -> None:
+    """Refuse a periodic box side ``length`` [m] that is not a whole number of cells of side
+    ``dx`` [m] (ValueError naming ``name``): the grid would round it and the surface undulation,
+    computed with the length as given, would no longer be periodic."""
+    n = length / dx
+    if abs(n - round(n)) > 1e-9 * max(1.0, n):
+        lo, hi = math.floor(n) * dx, math.ceil(n) * dx
+        raise ValueError(f"{name} = {length!r} m is not a whole number of cells of Δx = {dx:.6g} m "
+                         f"(d / cells_per_diameter; {n:.4g} cells): valid are multiples of Δx, e.g. "
+                         f"{lo:.6g} or {hi:.6g} m")
 
 
 def undulated_surface_cells(grid, height, perturbation, box_width) -> np.ndarray:
@@ -206,6 +219,7 @@ class LayerSetup:
         if self.box_width / self.dx < self.cells_per_diameter + 1:
             raise ValueError(f"box_width = {self.box_width!r} m is outside the valid range: at least "
                              f"{(self.cells_per_diameter + 1) * self.dx:g} m (kernel radius + 1 cell)")
+        check_whole_cells("box_width", self.box_width, self.dx)
 
     @property
     def dx(self) -> float:
