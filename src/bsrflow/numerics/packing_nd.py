@@ -18,7 +18,22 @@ normal flux, the transverse momenta carried in the same HLLE flux; SSP-RK3 in in
 the density floor and history pass after every step.  Boundaries: periodic sides, the floor
 below (mirror: ρ, δ_max even, u_z odd, u_x, u_y even), a lid at the domain top (mirror ghosts
 too: no mass leaves; the run stops when more than ``top_fraction`` of the mass reaches the top six
-cell layers, so the bed's top is a vacuum in every run that finishes).
+cell layers, so in every run that finishes the material there, the diffusive trace of the
+scheme above the bed, is at most that fraction).
+
+Round-off: two runs that differ by round-off (a 90° rotation of the horizontal axes, one ulp in
+one cell's initial density) drift apart by up to 3e-2 ρ_c in 0.06 s of a 3-D bed (a review's
+runs, 2026-12-02): the sound-speed bound of the faces jumps from 0 to its close-packing value
+where a cell reaches ρ_c, and which faces cross it first depends on the last bits.  The right-
+hand side itself keeps the symmetries to 2e-16, and the runs are reproducible bit for bit (same
+input, threads, resume); only bit-for-bit comparisons are meaningful, and differences below
+about 1e-2 ρ_c between runs that should be equal are noise.
+
+The stress is the uniaxial packing law used as a pressure, the same in every direction: a
+horizontally uniform bed gets its vertical stress exactly, but laterally the packing pushes as
+hard as vertically (9/5 of the isotropic pressure of the affine packing) and it has no shear
+strength, so a heap flattens under gravity (a 10-mm surface undulation to 3.7 mm in 0.2 s at
+rest, a review's one-off run).
 Δt = cfl Δx / (c_bound + max Σ_a |u_a|), with cfl ≤ 0.5/n (default 0.4/n).
 
 A horizontally uniform state evolves as the 1-D formulation at the same Δt: the horizontal
@@ -187,7 +202,7 @@ def fv_rhs_nd(q, dq, dim, dx, accel, d, m, k1, k2, c_cap, rho_tiny):
     for i in prange(NX):
         wr, wu, wa, wb, wh, fl = _line_buffers(NZ)
         for j in range(NY):
-            # vertical line: padded index p = k + 2; floor mirror below, vacuum (zeros) above
+            # vertical line: padded index p = k + 2; floor mirror below, the lid above (mirror)
             for k in range(NZ):
                 r, u = _primitive(q, MZ, i, j, k, rho_tiny)
                 wr[k + 2], wu[k + 2] = r, u
@@ -498,7 +513,8 @@ def fv_advance_nd(q, t, t_stop, dim, dx, cfl, c_bound, d, m, k1, k2, rho_tiny, r
 
 
 class EulerianPackingND:
-    """The n-D packing continuum on ``grid`` (GridND: periodic sides, floor, vacuum top).  On a
+    """The n-D packing continuum on ``grid`` (GridND: periodic sides, floor, a vacuum top, closed by a
+    lid, module docstring).  On a
     column (dim = 1) the 1-D finite volumes of :class:`bsrflow.numerics.packing.EulerianPacking`
     run (bit for bit its results for the same law and cfl), in the n-D layout.
 
