@@ -8,6 +8,12 @@ in SI units.
 
 __version__ = "0.1.0"
 
+from ._numba_cache import use_versioned_cache_dir  # noqa: E402
+
+NUMBA_CACHE_DIR = use_versioned_cache_dir()
+"""The folder of this version's compiled functions (:mod:`bsrflow._numba_cache`), or None when
+numba's default (or the user's ``NUMBA_CACHE_DIR``) is used."""
+
 from .numerics.grid import Grid1D  # noqa: E402
 from .numerics.solver import Scheme, Simulation, SimulationError, SimulationResult  # noqa: E402
 from .physics.kernels import Kernel, walton_braun, walton_braun_from_contact, zero_kernel  # noqa: E402
