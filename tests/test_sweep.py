@@ -315,6 +315,17 @@ def test_an_interrupted_sweep_writes_its_finished_cases(tmp_path, monkeypatch, c
         raise KeyboardInterrupt()
 
     monkeypatch.setattr(dask.distributed, "as_completed", one_then_interrupt)
+    real_cluster = dask.distributed.LocalCluster                # in-process workers, and a case that
+    monkeypatch.setattr(dask.distributed, "LocalCluster",       # needs no solver (the interrupt is tested)
+                        lambda **kw: real_cluster(**{**kw, "processes": False}))
+    import bsrflow.tools.sweep as sweep
+
+    def quick_case(overrides, source=None):
+        res = sweep._empty_result("ok", "")
+        res.update(top_max=0.5, top_max_over_d=22.0, t_top_max=0.6, steps=1, wall_time=0.0)
+        return res
+
+    monkeypatch.setattr(sweep, "run_case", quick_case)
     out = tmp_path / "s.nc"
     args = ["sweep", "--param", "a_over_d=0.5,0.75,1.0", "--workers", "1", "--out", str(out)]
     for k, v in TINY.items():
