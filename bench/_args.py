@@ -49,3 +49,14 @@ def merge_json(path: str, key: str, value) -> None:
     with open(path, "w") as fh:
         json.dump(data, fh, indent=2)
     print(f"wrote {path} (key {key})")
+
+
+def output_json(text: str) -> str:
+    """An output file path under the package's rule (:func:`bsrflow.io.paths.check_output_file`:
+    its folder must exist and be writable; missing folders are not created), checked before the
+    benchmark runs."""
+    from bsrflow.io.paths import OutputPathError, check_output_file
+    try:
+        return check_output_file(text, "--json")
+    except OutputPathError as exc:
+        raise argparse.ArgumentTypeError(str(exc).partition(": ")[2] or str(exc)) from None

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from _args import merge_json
+from _args import merge_json, output_json
 from bsrflow.numerics.bed_lagrangian import run_bed
 from bsrflow.physics.granular_bed import BedSetup
 
@@ -36,7 +36,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", default="bench/results.json")
+    ap.add_argument("--json", type=output_json, default="bench/results.json")
     ap.add_argument("--no-liggghts", action="store_true", help="time the continuum only")
     args = ap.parse_args(argv)
     folder = os.path.dirname(os.path.abspath(args.json))

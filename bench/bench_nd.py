@@ -33,6 +33,7 @@ from bsrflow.numerics.grid_nd import GridND
 from bsrflow.numerics.solver import Scheme
 from bsrflow.numerics.solver_nd import BSRModelND, SimulationND, to_internal, walton_braun_nd
 from bsrflow.physics.motion import HalfSineTaps
+from _args import output_json, positive_int  # noqa: E402
 
 DX = 0.002
 W = 2
@@ -61,18 +62,18 @@ def time_steps(sim, ui, ri, steps):
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--sizes", type=int, nargs="+", default=[32, 64, 128], help="grid sizes n (n^3 cells)")
-    ap.add_argument("--threads", type=int, nargs="+", default=[1, 2], help="numba thread counts")
-    ap.add_argument("--json", default=os.path.join(os.path.dirname(__file__), "results_nd.json"),
+    ap.add_argument("--sizes", type=positive_int, nargs="+", default=[32, 64, 128], help="grid sizes n (n^3 cells)")
+    ap.add_argument("--threads", type=positive_int, nargs="+", default=[1, 2], help="numba thread counts")
+    ap.add_argument("--json", type=output_json, default=os.path.join(os.path.dirname(__file__), "results_nd.json"),
                     help="output JSON path (default bench/results_nd.json)")
     args = ap.parse_args(argv)
     for n in args.sizes:
         if n < 3 or n <= W:
-            raise ValueError(f"--sizes: n = {n} is outside the valid range: integers > {W}")
+            ap.error(f"argument --sizes: n = {n} is outside the valid range: integers > {W}")
     maxt = numba.config.NUMBA_NUM_THREADS
     for p in args.threads:
         if not (1 <= p <= maxt):
-            raise ValueError(f"--threads: {p} is outside the valid range [1, {maxt}] (NUMBA_NUM_THREADS)")
+            ap.error(f"argument --threads: {p} is outside the valid range [1, {maxt}] (NUMBA_NUM_THREADS)")
 
     load0 = os.getloadavg()
     # compile once on a tiny grid
@@ -121,7 +122,6 @@ def main(argv=None) -> int:
                        "numba": numba.__version__, "numpy": np.__version__,
                        "threading_layer": numba.threading_layer(),
                        "load_average_before": load0, "load_average_after": load1}}
-    os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
     with open(args.json, "w") as fh:
         json.dump(out, fh, indent=2)
     print(f"wrote {args.json}")

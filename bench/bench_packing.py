@@ -22,7 +22,7 @@ import platform
 import statistics
 import time
 
-from _args import positive_int
+from _args import positive_int, output_json
 from bsrflow.analysis.compare import run_dem_column
 from bsrflow.analysis.compare_packing import PACKING_MODELS, model_label
 from bsrflow.physics.column import ColumnSetup, run_bsr_column, suggest_stiffness_factor
@@ -40,7 +40,7 @@ def _median_wall(fn, repeats):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", default="bench/results.json")
+    ap.add_argument("--json", type=output_json, default="bench/results.json")
     ap.add_argument("--repeats", type=positive_int, default=3)
     ap.add_argument("--ppd", type=positive_int, default=10)
     args = ap.parse_args(argv)
@@ -68,7 +68,6 @@ def main(argv=None):
         with open(args.json) as fh:
             data = json.load(fh)
     data["packing_column_2s"] = entry
-    os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
     with open(args.json, "w") as fh:
         json.dump(data, fh, indent=2)
     print(f"wrote {args.json} (key packing_column_2s)")

@@ -27,7 +27,7 @@ import time
 import numba
 import numpy as np
 
-from _args import merge_json
+from _args import merge_json, output_json
 from bsrflow.numerics.grid_nd import GridND
 from bsrflow.numerics.packing_nd import EulerianPackingND, PackingLawND
 from bsrflow.physics.motion import HalfSineTaps
@@ -82,7 +82,7 @@ def time_pairs(n, steps, repeats, thread_counts):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", default="bench/results.json")
+    ap.add_argument("--json", type=output_json, default="bench/results.json")
     ap.add_argument("--sizes", type=int, nargs="+", default=[64, 128])
     ap.add_argument("--steps", type=int, default=3)
     ap.add_argument("--repeats", type=int, default=5)

@@ -50,6 +50,7 @@ import numpy as np
 
 from bsrflow.numerics.solver import Scheme
 from bsrflow.physics.column import ColumnSetup, column_run_from_result, initial_density
+from _args import output_json  # noqa: E402
 
 T = 0.3
 PPDS = (5, 10, 20, 40)
@@ -120,7 +121,7 @@ def cost_at(err, errs, costs):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", default="bench/results_schemes.json")
+    ap.add_argument("--json", type=output_json, default="bench/results_schemes.json")
     ap.add_argument("--quick", action="store_true", help="one timing per run, no chaos floor, grids 5-20")
     args = ap.parse_args(argv)
     numba.set_num_threads(1)
@@ -185,7 +186,6 @@ def main(argv=None):
                 "ratio_seed_over_variant": c_seed / c_var, "interpolated": bool(inside)}
             print(f"variant {var:17s} {metric:12s} at error {target:.2e}: seed {c_seed:.3f} s, {var} {c_var:.3f} s, "
                   f"ratio {c_seed / c_var:.2f}{'' if inside else ' (outside its error range: clamped)'}", flush=True)
-    os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
     with open(args.json, "w") as fh:
         json.dump(out, fh, indent=2)
     print(f"wrote {args.json}")

@@ -38,6 +38,7 @@ from bsrflow.numerics.reference import ReferenceScheme
 from bsrflow.numerics.solver import Scheme
 from bsrflow.physics.interaction import fast_integral_for
 from bsrflow.physics.column import ColumnSetup, initial_density, run_bsr_column
+from _args import output_json, positive_int  # noqa: E402
 
 DEFAULTS = dict(m0=406.0, kernel_dissipation=0.9, a_over_d=0.75, frequency=10.0)
 STATE_TIMES = (0.3, 0.45, 0.6, 0.9, 1.3)
@@ -266,8 +267,8 @@ def _cpu_model() -> str:
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", default="bench/results.json")
-    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--json", type=output_json, default="bench/results.json")
+    ap.add_argument("--repeats", type=positive_int, default=5, help="timed repeats per case (median)")
     ap.add_argument("--quick", action="store_true", help="fewer steps and repeats, 20/200 spheres only")
     args = ap.parse_args(argv)
     numba.set_num_threads(1)
@@ -311,7 +312,6 @@ def main(argv=None):
     print("DEM vs BSR over 2 s:", flush=True)
     out["dem_vs_bsr"] = dem_vs_bsr((20, 200) if args.quick else (20, 200, 2000), reps)
     out["machine"]["loadavg_end"] = os.getloadavg() if hasattr(os, "getloadavg") else None
-    os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
     with open(args.json, "w") as fh:
         json.dump(out, fh, indent=2)
     print(f"wrote {args.json}")

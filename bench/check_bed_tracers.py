@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from _args import list_of, positive_int
+from _args import list_of, positive_int, output_json
 from bsrflow.numerics.packing_nd import run_packing_nd
 from bsrflow.numerics.solver import save_schedule
 from bsrflow.physics.packing_bed import PackingBed
@@ -60,7 +60,7 @@ def material_line_errors(cells_per_diameter: int) -> dict:
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--cells-per-diameter", type=list_of(positive_int), default=[2, 4, 8])
-    ap.add_argument("--json", default=None, help="write the numbers to this JSON file")
+    ap.add_argument("--json", type=output_json, default=None, help="write the numbers to this JSON file")
     args = ap.parse_args(argv)
     rows = []
     print("cells/d | largest distance from the material line [d] at start 0.5 / 1.5 / 2.5 / 2.9 d | "

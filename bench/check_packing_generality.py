@@ -35,6 +35,7 @@ import numpy as np
 from bsrflow.analysis.compare import run_dem_column
 from bsrflow.analysis.compare_packing import _metrics, _run_against_dem, case_setup
 from bsrflow.physics.column import ColumnSetup
+from _args import output_json  # noqa: E402
 
 VARIANTS = {
     "e0.5": {"restitution": 0.5},
@@ -59,7 +60,7 @@ def split_rms(t_dem, mc_dem, t_run, mc_run, t_tap, t_land, d):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", default="bench/results_packing_generality.json", help="output JSON path")
+    ap.add_argument("--json", type=output_json, default="bench/results_packing_generality.json", help="output JSON path")
     ap.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=list(VARIANTS), metavar="NAME",
                     help="any of: " + ", ".join(VARIANTS))
     ap.add_argument("--a-over-d", type=float, nargs="+", default=[0.75, 1.0], help="tap amplitudes a/d, in (0, 20]")

@@ -22,7 +22,7 @@ import json
 
 import numpy as np
 
-from _args import positive_int
+from _args import positive_int, output_json
 from bsrflow.analysis.compare import run_dem_column
 from bsrflow.analysis.compare_packing import PACKING_CASES, _metrics, case_setup
 from bsrflow.physics import packing
@@ -37,7 +37,7 @@ def main(argv=None):
     ap.add_argument("--runs", type=positive_int, default=12)
     ap.add_argument("--ppd", type=positive_int, default=10)
     ap.add_argument("--profile", default="seed", choices=("seed", "constant"))
-    ap.add_argument("--json", default=None)
+    ap.add_argument("--json", type=output_json, default=None)
     args = ap.parse_args(argv)
     case = next(c for c in PACKING_CASES if c["name"] == args.case)
     s = case_setup(case, ColumnSetup(points_per_diameter=args.ppd), formulation="lagrangian", range_over_d=1.0)

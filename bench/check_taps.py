@@ -21,6 +21,7 @@ import numpy as np
 
 from bsrflow.numerics.solver import Scheme, SimulationError
 from bsrflow.physics.column import ColumnSetup, run_bsr_column
+from _args import list_of, output_json, positive_int  # noqa: E402
 
 CASES = {"single_tap_a0.75": dict(a_over_d=0.75, n_taps=1),
          "single_tap_a1.0": dict(a_over_d=1.0, n_taps=1),
@@ -31,12 +32,12 @@ CONSTANTS = (dict(m0=406.0, kernel_dissipation=0.9), dict(m0=179.0, kernel_dissi
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--scheme", default="accurate", choices=("seed", "accurate"))
-    ap.add_argument("--ppd", default="10,20,40", help="points per diameter, comma-separated")
-    ap.add_argument("--json", default="out/check_taps.json")
+    ap.add_argument("--ppd", type=list_of(positive_int), default=[10, 20, 40], help="points per diameter, comma-separated")
+    ap.add_argument("--json", type=output_json, default="out/check_taps.json")
     args = ap.parse_args(argv)
     numba.set_num_threads(1)
     rows, failed = [], 0
-    for ppd in (int(p) for p in args.ppd.split(",")):
+    for ppd in args.ppd:
         for case, kw in CASES.items():
             for const in CONSTANTS:
                 s = ColumnSetup(points_per_diameter=ppd, **const, **kw)
@@ -55,7 +56,6 @@ def main(argv=None):
                 what = (f"top {row['top_max_over_d']:.2f} d, mass centre {row['mass_centre_max_over_d']:.2f} d, "
                         f"min ρ {row['min_density']:.1e}" if row["status"] == "ok" else row["status"])
                 print(f"{args.scheme} ppd {ppd:2d} {case:17s} m0 {const['m0']:5.0f}: {what}", flush=True)
-    os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
     with open(args.json, "w") as fh:
         json.dump({"scheme": args.scheme, "runs": rows}, fh, indent=1)
     print(f"{len(rows) - failed} of {len(rows)} runs completed; wrote {args.json}")

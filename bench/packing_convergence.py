@@ -24,7 +24,7 @@ import time
 
 import numpy as np
 
-from _args import list_of, positive_int
+from _args import list_of, positive_int, output_json
 from bsrflow.analysis.compare import run_dem_column
 from bsrflow.analysis.compare_packing import PACKING_CASES, case_setup, model_label, parse_models
 from bsrflow.physics.column import ColumnSetup, run_bsr_column
@@ -32,7 +32,7 @@ from bsrflow.physics.column import ColumnSetup, run_bsr_column
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", default="bench/results_packing_convergence.json")
+    ap.add_argument("--json", type=output_json, default="bench/results_packing_convergence.json")
     ap.add_argument("--cases", default="d22mm_a0.75,d22mm_a1.0")
     ap.add_argument("--ppd", type=list_of(positive_int), default=[5, 10, 20, 40])
     ap.add_argument("--models", default="lagrangian:1,eulerian:0,lagrangian:0")
@@ -55,7 +55,6 @@ def main(argv=None):
         ap.error("--models / --formulations: no model left to run")
     if any(p < 2 for p in args.ppd):
         ap.error("--ppd: each value must be at least 2")
-    os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
     out = {"machine": f"{platform.machine()}, {os.cpu_count()} cores, {platform.python_implementation()} "
                       f"{platform.python_version()}", "cases": []}
     for name in names:

@@ -23,7 +23,7 @@ import time
 
 import numpy as np
 
-from _args import list_of, positive_float, positive_int
+from _args import list_of, positive_float, positive_int, output_json
 from bsrflow.analysis.compare_packing import PACKING_CASES, case_setup
 from bsrflow.physics.column import (STIFFNESS_ERROR_BOUNDS, ColumnSetup, impact_mach, run_bsr_column,
                                     stiffness_model, suggest_stiffness_factor)
@@ -38,7 +38,7 @@ def _peak(run, s):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", default="bench/results_packing_stiffness.json")
+    ap.add_argument("--json", type=output_json, default="bench/results_packing_stiffness.json")
     ap.add_argument("--formulation", default="lagrangian", choices=("eulerian", "lagrangian"))
     ap.add_argument("--range", type=float, default=None, help="R/d (default: the formulation's)")
     ap.add_argument("--ppd", type=positive_int, default=10)
@@ -95,7 +95,6 @@ def main(argv=None):
                   flush=True)
         out["cases"].append(entry)
         out["worst"] = {str(k): v for k, v in worst.items()}
-        os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
         with open(args.json, "w") as fh:
             json.dump(out, fh, indent=2)
     for mach, wm in sorted(worst.items()):

@@ -30,7 +30,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import bench_schemes as bs  # noqa: E402
-from _args import list_of, positive_float, positive_int  # noqa: E402
+from _args import list_of, output_json, positive_float, positive_int  # noqa: E402
 
 from bsrflow.numerics import steppers  # noqa: E402
 from bsrflow.numerics.solver import Scheme  # noqa: E402
@@ -45,7 +45,7 @@ def main(argv=None) -> int:
                     help="Courant number in (0, 1.7321], the limit of the Kutta RK3 row (default 0.1)")
     ap.add_argument("--perturb", type=float, default=0.0,
                     help="relative perturbation of the initial density, in [0, 1e-3] (default 0)")
-    ap.add_argument("--json", default=None, help="also write the table as JSON")
+    ap.add_argument("--json", type=output_json, default=None, help="also write the table as JSON")
     args = ap.parse_args(argv)
     nodes, ppds = args.nodes, args.ppd
     if not all(0 < v < 1 for v in nodes):

@@ -168,3 +168,13 @@ def test_figures_of_an_unfinished_run_say_so_in_their_title(tmp_path, monkeypatc
             assert "UNFINISHED" not in title
         else:
             assert f"UNFINISHED RUN ({shown}): 8 snapshot(s) up to t = 0.4 s" in title, title
+
+
+def test_a_file_that_is_not_netcdf_is_named_so(tmp_path):
+    """xarray's message for an unknown format ends in a URL on its second line, which the
+    one-line error cut off mid-sentence; the package says what the file is not."""
+    path = tmp_path / "col.toml"
+    path.write_text("[run]\nt_end = 0.1\n")
+    with pytest.raises(ValueError, match=r"col\.toml: cannot be read as netCDF \(ValueError: not a netCDF file "
+                                         r"\(no installed reader recognises its format\)\)$"):
+        load_output(str(path))

@@ -66,11 +66,6 @@ def main(argv=None) -> int:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         print(f"bsrflow {args.command}: error: {msg}", file=sys.stderr)
         return 2
-    except OSError as exc:
-        # a write that failed during the work (a full disk, a file system gone read-only):
-        # one line; `bsrflow run` words it with what the output keeps (bsrflow.io.runner.write_failed)
-        print(f"bsrflow {args.command}: error: {' '.join(str(exc).split())}", file=sys.stderr)
-        return 1
     except KeyboardInterrupt as exc:
         # bsrflow.io.runner.run_config puts what was kept and whether --resume can continue
         msg = " ".join(str(exc).split()) or "interrupted"
@@ -85,6 +80,11 @@ def main(argv=None) -> int:
         except (OSError, ValueError):
             pass
         return 141
+    except OSError as exc:
+        # a write that failed during the work (a full disk, a file system gone read-only):
+        # one line; `bsrflow run` words it with what the output keeps (bsrflow.io.runner.write_failed)
+        print(f"bsrflow {args.command}: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

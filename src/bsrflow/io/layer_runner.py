@@ -498,6 +498,9 @@ def _closing_on_failure(writer, out, ck_file, last):
         exc.exit_code = 128 + int(getattr(exc, "signal_number", 2))
         raise
     except OSError as exc:
+        if isinstance(exc, BrokenPipeError):        # `| head` went away: not a failed write of ours
+            writer.close("failed")
+            raise
         from .runner import write_failed
         raise write_failed(writer, exc) from exc
     except BaseException:

@@ -300,6 +300,9 @@ def _closing_on_failure(writer, stop_attrs, interrupted):
         interrupted(exc)
         raise
     except OSError as exc:
+        if isinstance(exc, BrokenPipeError):       # `| head` went away: not a failed write of ours
+            writer.close(f"failed: {type(exc).__name__}: {exc}")
+            raise
         raise write_failed(writer, exc) from exc
     except BaseException as exc:
         writer.close(f"failed: {type(exc).__name__}: {exc}")

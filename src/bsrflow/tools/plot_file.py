@@ -70,8 +70,10 @@ def load_output(path):
         with xr.open_dataset(path, decode_times=False, mask_and_scale=True) as ds:
             ds = ds.load()
     except Exception as exc:  # noqa: BLE001 - any reader error becomes one clear line
-        raise ValueError(f"{path}: cannot be read as netCDF ({type(exc).__name__}: {str(exc).splitlines()[0]})") \
-            from None
+        first = str(exc).splitlines()[0] if str(exc) else ""
+        if "did not find a match in any of xarray's currently installed IO backends" in first:
+            first = "not a netCDF file (no installed reader recognises its format)"  # xarray's hint is cut
+        raise ValueError(f"{path}: cannot be read as netCDF ({type(exc).__name__}: {first})") from None
     if "time" not in ds.variables:
         raise ValueError(f"{path}: no 'time' variable (not a bsrflow output file?)")
     t = _clean(ds["time"].values).reshape(-1)
