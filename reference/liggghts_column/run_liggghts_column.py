@@ -100,15 +100,9 @@ def deck(s, dt: float, n_sample: int, bed) -> str:
                 "unfix tap"]
         t = tk + half
     run.append(f"run {steps(s.t_end) - steps(t)}")
-    return f"""# written by reference/liggghts_column/run_liggghts_column.py
-units           si
-atom_style      granular
-atom_modify     map array
-boundary        p p f
-newton          off
-communicate     single vel yes
-processors      1 1 1
-region          box block 0 {lx:.10g} 0 {lx:.10g} {-0.5 * d:.10g} {zhi:.10g} units box
+    header = bed.deck_header(lx, 0.0, zhi).replace("liggghts_bed/run_liggghts.py",
+                                                   "liggghts_column/run_liggghts_column.py")
+    return header + f"""region          box block 0 {lx:.10g} 0 {lx:.10g} {-0.5 * d:.10g} {zhi:.10g} units box
 create_box      2 box
 neighbor        {0.1 * d:.6g} bin
 neigh_modify    delay 0
