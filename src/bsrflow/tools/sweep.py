@@ -237,8 +237,10 @@ def run_sweep(params: dict, source: SetupSource | None = None, scheduler: str | 
             raise ValueError(f"--scheduler {scheduler}: cannot connect to a dask scheduler "
                              f"({type(exc).__name__}: {_one_line(exc)}; is a dask scheduler listening there?)") from None
     else:
+        # no dashboard; the scheduler's own small HTTP server on a free port (on its default, 8787,
+        # a second sweep or a Jupyter cluster made dask print a 4-line warning)
         cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                               silence_logs=logging.ERROR)
+                               silence_logs=logging.ERROR, scheduler_kwargs={"dashboard_address": ":0"})
         client = Client(cluster)
     results = [None] * len(cases)
     interrupted = None
