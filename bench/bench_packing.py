@@ -40,9 +40,10 @@ def _median_wall(fn, repeats):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", type=output_json, default="bench/results.json")
-    ap.add_argument("--repeats", type=positive_int, default=3)
-    ap.add_argument("--ppd", type=positive_int, default=10)
+    ap.add_argument("--json", type=output_json, default="bench/results.json",
+                    help="JSON to add the results to (its folder must exist)")
+    ap.add_argument("--repeats", type=positive_int, default=3, help="timed runs per setting (median)")
+    ap.add_argument("--ppd", type=positive_int, default=10, help="points or cells per diameter")
     args = ap.parse_args(argv)
     base = ColumnSetup(kernel_name="packing", t_end=2.0, points_per_diameter=args.ppd)
     phi = suggest_stiffness_factor(base)

@@ -47,10 +47,12 @@ def _table(series, names, times, d, title, extra=lambda tt: ""):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--case", default="d22mm_a1.0")
-    ap.add_argument("--runs", type=list_of(_run_spec), default=[("eulerian", 20), ("eulerian", 40), ("lagrangian", 40)])
-    ap.add_argument("--stiffness-factor", type=positive_float, default=1.0)
-    ap.add_argument("--times", type=list_of(positive_float), default=[0.9, 0.95, 1.0, 1.05, 1.1, 1.15, 1.2])
+    ap.add_argument("--case", default="d22mm_a1.0", help="a case of `bsrflow compare --kernel packing`")
+    ap.add_argument("--runs", type=list_of(_run_spec), default=[("eulerian", 20), ("eulerian", 40), ("lagrangian", 40)],
+                    help="formulation:ppd pairs, comma-separated, e.g. eulerian:20,lagrangian:40")
+    ap.add_argument("--stiffness-factor", type=positive_float, default=1.0, help="K x this factor (default 1)")
+    ap.add_argument("--times", type=list_of(positive_float), default=[0.9, 0.95, 1.0, 1.05, 1.1, 1.15, 1.2],
+                    help="times [s] at which the state is printed, comma-separated")
     args = ap.parse_args(argv)
     known = {c["name"]: c for c in PACKING_CASES}
     if args.case not in known:

@@ -32,11 +32,16 @@ from bsrflow.physics.column import ColumnSetup, run_bsr_column
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", type=output_json, default="bench/results_packing_convergence.json")
-    ap.add_argument("--cases", default="d22mm_a0.75,d22mm_a1.0")
-    ap.add_argument("--ppd", type=list_of(positive_int), default=[5, 10, 20, 40])
-    ap.add_argument("--models", default="lagrangian:1,eulerian:0,lagrangian:0")
-    ap.add_argument("--formulations", default="eulerian,lagrangian")
+    ap.add_argument("--json", type=output_json, default="bench/results_packing_convergence.json",
+                    help="output JSON (its folder must exist)")
+    ap.add_argument("--cases", default="d22mm_a0.75,d22mm_a1.0",
+                    help="comma-separated case names of `bsrflow compare --kernel packing`")
+    ap.add_argument("--ppd", type=list_of(positive_int), default=[5, 10, 20, 40],
+                    help="points or cells per diameter, comma-separated (each at least 2)")
+    ap.add_argument("--models", default="lagrangian:1,eulerian:0,lagrangian:0",
+                    help="formulation:R/d pairs, comma-separated (as `bsrflow compare --models`)")
+    ap.add_argument("--formulations", default="eulerian,lagrangian",
+                    help="keep only the models of these formulations")
     args = ap.parse_args(argv)
     names = args.cases.split(",")
     known = {c["name"]: c for c in PACKING_CASES}
