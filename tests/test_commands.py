@@ -283,3 +283,20 @@ def test_an_interrupt_swallowed_while_compiling_is_raised_at_the_next_progress_c
         progress(0.1)                                 # raised once
         close()
     assert commands._PENDING_SIGNALS == []
+
+
+@pytest.mark.parametrize("argv, option", [
+    (["init", "{tmp}/a.toml", "--kernel", "seed", "--kernel", "packing"], "--kernel"),
+    (["init", "{tmp}/a.toml", "--kernel=seed", "--kernel", "packing"], "--kernel"),
+    (["compare-bed", "--gammas", "3", "--gammas", "4"], "--gammas"),
+    (["verify", "--json", "{tmp}/a.json", "--json", "{tmp}/b.json"], "--json"),
+])
+def test_a_single_valued_option_given_twice_is_refused(tmp_path, capsys, argv, option):
+    """argparse keeps the last of two values silently (a walk-through's `init --kernel seed
+    --kernel packing` wrote a packing config); repeatable options (--set, --param) are not
+    affected."""
+    from bsrflow.cli import main
+    code = main([a.format(tmp=tmp_path) for a in argv])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and err == [f"bsrflow {argv[0]}: error: {option} is given twice; give it once"]
+    assert list(tmp_path.iterdir()) == []

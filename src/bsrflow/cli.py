@@ -50,11 +50,32 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _given_twice(parser, argv) -> str | None:
+    """The first single-valued option of the chosen command that ``argv`` gives twice (argparse
+    would keep the last silently; repeatable options such as ``--set`` are ``append`` actions)."""
+    sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
+    command = next((w for w in argv if not w.startswith("-")), None)
+    if sub is None or command not in sub.choices:
+        return None
+    words = [w.split("=", 1)[0] for w in argv[argv.index(command) + 1:] if w.startswith("--")]
+    for action in sub.choices[command]._actions:
+        if isinstance(action, (argparse._AppendAction, argparse._CountAction, argparse._HelpAction)):
+            continue
+        if sum(words.count(o) for o in action.option_strings) > 1:
+            return "/".join(action.option_strings)
+    return None
+
+
 def main(argv=None) -> int:
     parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
+        return 2
+    twice = _given_twice(parser, argv)
+    if twice:
+        print(f"bsrflow {args.command}: error: {twice} is given twice; give it once", file=sys.stderr)
         return 2
     from .numerics.solver import SimulationError
     try:
