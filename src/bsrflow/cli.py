@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import re
 import sys
 
 from . import __version__
@@ -33,7 +34,13 @@ COMMAND_MODULES = [
 
 class _OneLineErrors(argparse.ArgumentParser):
     """argparse with the package's error form: one line on stderr, ``prog: error: message``,
-    exit code 2 (no usage block; ``--help`` gives it)."""
+    exit code 2 (no usage block; ``--help`` gives it).  A negative number in exponent form
+    (``--dt -5e-6``) is read as a value, as ``-0.5`` is, so that its range check names it
+    (argparse took it for an option: "expected one argument")."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
 
     def error(self, message):
         self.exit(2, f"{self.prog}: error: {' '.join(str(message).split())}\n")
