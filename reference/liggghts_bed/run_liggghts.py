@@ -982,6 +982,15 @@ def main(argv=None):
     ap.add_argument("--root", metavar="DIR", help="write work/, results/ and the JSON files under DIR instead of "
                     "this folder (bench/bench_bed.py: a timing run that leaves the committed data alone)")
     a = ap.parse_args(argv)
+    for g in a.gamma or []:
+        if not (math.isfinite(g) and g > 0):
+            ap.error(f"argument --gamma: {g!r} is outside the valid range (0, inf)")
+    for name, lo in (("n", 1), ("lateral", 1.0), ("startup", 0), ("measured", 1)):
+        if getattr(a, name) < lo:
+            ap.error(f"argument --{name}: {getattr(a, name)!r} is outside the valid range [{lo}, inf)")
+    if not (0.0 <= a.friction and 0.0 < a.restitution <= 1.0):
+        ap.error(f"argument --friction / --restitution: {a.friction!r} / {a.restitution!r} is outside the valid "
+                 "range [0, inf) / (0, 1]")
     E_REST = a.restitution
     if a.root:
         OUT = Path(a.root).resolve()
