@@ -436,7 +436,7 @@ def test_compare_dump_runs_the_packing_continuum(tmp_path, small_setup, dem_resu
                         (["--set", "kernel=seed"], "contradicts"),
                         (["--set", "model.kernel=seed"], "--kernel packing contradicts --set model.kernel=seed"),
                         (["--scheme", "seed"], "--scheme"),
-                        (["--scheme", "accurate"], "--scheme"), (["--set", "ppd=5", "--ppd", "7"], "--ppd 7 contradicts"),
+                        (["--scheme", "accurate"], "--scheme"), (["--set", "n_spheres=5"], "--n-spheres 3 contradicts"),
                         (["--set", "ppd=5", "--set", "points_per_diameter=6"], "given twice")):
         assert main(common + ["--kernel", "packing"] + extra) == 2
         err = capsys.readouterr().err.strip().splitlines()
