@@ -11,7 +11,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bsrflow.analysis.compare import run_dem_column
 from bsrflow.analysis.compare_packing import PACKING_CASES, case_setup
 from bsrflow.physics.column import ColumnSetup
 
@@ -40,27 +39,30 @@ def _liggghts(name):
     return np.loadtxt(REF / "results" / f"{name}.csv", delimiter=",")
 
 
+def _script():
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("run_liggghts_column", REF / "run_liggghts_column.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_package_dem_equals_liggghts(name):
+    """`python reference/liggghts_column/run_liggghts_column.py --compare` prints these numbers."""
     s = case_setup(CASES[name])
     ref = SUMMARY["cases"][name]
     assert (ref["diameter_m"], ref["a_over_d"], ref["n_taps"], ref["t_end_s"]) == \
         (s.diameter, s.a_over_d, s.n_taps, s.t_end)              # the committed run is this case
-    t, pos, floor = run_dem_column(s)
-    lig = _liggghts(name)
-    np.testing.assert_allclose(lig[:, 0], t, rtol=0, atol=1e-12)   # the same samples
-    d = s.diameter
-    assert np.max(np.abs(lig[:, 1] - floor)) < 1e-3 * d             # the same floor motion
-    top, centre = pos.max(axis=1), pos.mean(axis=1)
-    for k, t0 in enumerate(s.tap_times()):                       # every tap's peak
-        t1 = s.tap_times()[k + 1] if k + 1 < s.n_taps else np.inf
-        w = (t >= t0 - 1e-12) & (t < t1)
-        i, j = np.argmax(np.where(w, top, -np.inf)), np.argmax(np.where(w, lig[:, 2], -np.inf))
-        assert abs(top[i] / lig[j, 2] - 1.0) < TOP_TOL_REL, (k, top[i] / d, lig[j, 2] / d)
+    c = _script().compare(name, s)                              # same samples, checked there
+    assert c["floor_max_diff_m"] < 1e-3 * s.diameter            # the same floor motion
+    assert len(c["taps"]) == s.n_taps
+    for k, tap in enumerate(c["taps"]):
+        assert abs(tap["rel_diff"]) < TOP_TOL_REL, (k, tap)
         if k == 0:
-            assert abs(top[i] - lig[j, 2]) / d < FIRST_TOP_TOL_D, (top[i] / d, lig[j, 2] / d)
-        assert abs(t[i] - lig[j, 0]) < 1e-9, (k, t[i], lig[j, 0])          # the same sample
-    assert np.sqrt(np.mean((centre - lig[:, 3]) ** 2)) / d < RMS_TOL_D
+            assert abs(tap["diff_over_d"]) < FIRST_TOP_TOL_D, tap
+        assert abs(tap["dem_t_top_max_s"] - tap["liggghts_t_top_max_s"]) < 1e-9, (k, tap)   # the same sample
+    assert c["mass_centre_rms_over_d"] < RMS_TOL_D
 
 
 def test_every_case_has_its_liggghts_run():

@@ -3,6 +3,7 @@ against a real, independent engine.
 
     python reference/liggghts_column/run_liggghts_column.py            # every case (about 10 min)
     python reference/liggghts_column/run_liggghts_column.py --cases d22mm_a0.75,demo_three_taps_a0.75
+    python reference/liggghts_column/run_liggghts_column.py --compare    # the package DEM against them
 
 For each case of ``bsrflow compare --kernel packing`` (d = 5, 10, 22 mm at a/d = 0.5, 0.75,
 1.0, 1.5, single taps; three taps 1.0 s apart at d = 22 mm, a/d = 0.75 and 1.0) and the demo's
@@ -170,20 +171,62 @@ def run_case(name: str, s, bed) -> dict:
             "wall_time_s": wall}
 
 
+def compare(name: str, s) -> dict:
+    """The package's DEM (:func:`bsrflow.analysis.compare.run_dem_column`) against the committed
+    LIGGGHTS run of case ``name`` (ColumnSetup ``s``): per tap the top maxima [d] and times [s],
+    their difference, the mass-centre and top RMS over the run [d], the largest floor difference
+    [m]; no LIGGGHTS needed."""
+    from bsrflow.analysis.compare import run_dem_column
+    t, pos, floor = run_dem_column(s)
+    lig = np.loadtxt(RESULTS / f"{name}.csv", delimiter=",")
+    if lig.shape[0] != t.size or np.max(np.abs(lig[:, 0] - t)) > 1e-9:
+        raise SystemExit(f"{name}: the committed run's samples are not the package DEM's")
+    d = s.diameter
+    top, centre = pos.max(axis=1), pos.mean(axis=1)
+    starts = list(s.tap_times()) + [np.inf]
+    taps = []
+    for t0, t1 in zip(starts[:-1], starts[1:]):
+        w = (t >= t0 - 1e-12) & (t < t1)
+        i, j = int(np.argmax(np.where(w, top, -np.inf))), int(np.argmax(np.where(w, lig[:, 2], -np.inf)))
+        taps.append({"dem_top_max_over_d": float(top[i] / d), "dem_t_top_max_s": float(t[i]),
+                     "liggghts_top_max_over_d": float(lig[j, 2] / d), "liggghts_t_top_max_s": float(lig[j, 0]),
+                     "diff_over_d": float((top[i] - lig[j, 2]) / d), "rel_diff": float(top[i] / lig[j, 2] - 1.0)})
+    return {"taps": taps,
+            "mass_centre_rms_over_d": float(np.sqrt(np.mean((centre - lig[:, 3]) ** 2)) / d),
+            "top_rms_over_d": float(np.sqrt(np.mean((top - lig[:, 2]) ** 2)) / d),
+            "floor_max_diff_m": float(np.max(np.abs(lig[:, 1] - floor)))}
+
+
+def print_comparison(names, every) -> None:
+    print("case                     tap  DEM top/d  LIGGGHTS top/d   diff [d]    rel     same t  mc RMS/d")
+    for name in names:
+        c = compare(name, every[name])
+        for k, tap in enumerate(c["taps"]):
+            same = abs(tap["dem_t_top_max_s"] - tap["liggghts_t_top_max_s"]) < 1e-9
+            print(f"{name:24s} {k + 1:3d}  {tap['dem_top_max_over_d']:9.3f}  {tap['liggghts_top_max_over_d']:14.3f}"
+                  f"  {tap['diff_over_d']:+9.3f}  {100 * tap['rel_diff']:+6.2f}%  {str(same):>6s}"
+                  + (f"  {c['mass_centre_rms_over_d']:8.4f}" if k == 0 else ""))
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--cases", default=None, help="comma-separated case names (default: all)")
+    p.add_argument("--compare", action="store_true",
+                   help="no LIGGGHTS run: print the package DEM against the committed LIGGGHTS results")
     args = p.parse_args(argv)
-    if shutil.which("liggghts") is None:
-        print("run_liggghts_column.py: the `liggghts` executable is not on the PATH "
-              "(Debian: apt-get install liggghts)", file=sys.stderr)
-        return 2
     every = cases()
     names = list(every) if args.cases is None else [c.strip() for c in args.cases.split(",")]
     unknown = [n for n in names if n not in every]
     if unknown:
         print(f"run_liggghts_column.py: --cases: unknown {', '.join(unknown)}; valid: {', '.join(every)}",
               file=sys.stderr)
+        return 2
+    if args.compare:
+        print_comparison(names, every)
+        return 0
+    if shutil.which("liggghts") is None:
+        print("run_liggghts_column.py: the `liggghts` executable is not on the PATH "
+              "(Debian: apt-get install liggghts)", file=sys.stderr)
         return 2
     bed = _bed_reference()
     summary_path = HERE / "summary.json"
