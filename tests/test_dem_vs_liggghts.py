@@ -66,8 +66,14 @@ def test_package_dem_equals_liggghts(name):
 
 
 def test_every_case_has_its_liggghts_run():
-    assert set(SUMMARY["cases"]) == set(CASES)
-    for name in CASES:
+    """The 15 cases above and the 14 columns of the README's "outside the 14 cases" (reported
+    by `run_liggghts_column.py --variants --compare`, not held to the criteria above, which were
+    set on the 15 before those runs: their top maxima are within 0.30 % but up to 0.100 d apart
+    in the higher throws, and one mass-centre RMS is 0.0505 d, at f = 20 Hz with a 94-d throw)."""
+    every = _script().cases(variants=True)
+    assert set(CASES) <= set(every) and len(every) == 29
+    assert set(SUMMARY["cases"]) == set(every)
+    for name in every:
         assert (REF / "results" / f"{name}.csv").is_file()
 
 

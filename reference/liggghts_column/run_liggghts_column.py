@@ -58,14 +58,28 @@ def _bed_reference():
     return mod
 
 
-def cases() -> dict:
-    """name -> ColumnSetup: issue #18's 14 cases and the demo's three taps 0.6 s apart."""
+def cases(variants: bool = False) -> dict:
+    """name -> ColumnSetup: issue #18's 14 cases and the demo's three taps 0.6 s apart; with
+    ``variants`` also the README's "outside the 14 cases" columns (``bench/check_packing_generality.py``:
+    one of e, N, f, K changed at d = 22 mm, a/d = 0.75 and 1.0), named ``<variant>_<case>``."""
     from bsrflow.analysis.compare_packing import PACKING_CASES, case_setup
     from bsrflow.physics.column import ColumnSetup
     out = {c["name"]: case_setup(c) for c in PACKING_CASES}
     demo = {"name": "demo_three_taps_a0.75", "diameter": ColumnSetup().diameter, "a_over_d": 0.75,
             "n_taps": 3, "tap_period": 0.6}
     out[demo["name"]] = case_setup(demo)
+    if variants:
+        path = HERE.parent.parent / "bench" / "check_packing_generality.py"
+        if str(path.parent) not in sys.path:
+            sys.path.insert(0, str(path.parent))          # its own imports (bench/_args.py)
+        spec = importlib.util.spec_from_file_location("check_packing_generality", path)
+        gen = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(gen)
+        for vname, change in gen.VARIANTS.items():
+            base = ColumnSetup(kernel_name="packing").with_(**change)
+            for c in PACKING_CASES:
+                if c["name"] in ("d22mm_a0.75", "d22mm_a1.0"):
+                    out[f"{vname}_{c['name']}"] = case_setup(c, base)
     return out
 
 
@@ -213,8 +227,10 @@ def main(argv=None) -> int:
     p.add_argument("--cases", default=None, help="comma-separated case names (default: all)")
     p.add_argument("--compare", action="store_true",
                    help="no LIGGGHTS run: print the package DEM against the committed LIGGGHTS results")
+    p.add_argument("--variants", action="store_true",
+                   help="also the columns of bench/check_packing_generality.py (e, N, f or K changed)")
     args = p.parse_args(argv)
-    every = cases()
+    every = cases(args.variants)
     names = list(every) if args.cases is None else [c.strip() for c in args.cases.split(",")]
     unknown = [n for n in names if n not in every]
     if unknown:
