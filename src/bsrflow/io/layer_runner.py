@@ -32,19 +32,17 @@ continues bit for bit.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import math
 import os
-import time
 import tomllib
 from dataclasses import dataclass
 
 import numpy as np
 
-from .checkpoint import Checkpoint, checkpoint_path, read_checkpoint, write_checkpoint
+from .checkpoint import Checkpoint, checkpoint_path
 from .config import ConfigError
-from .paths import OutputPathError
+from .driver import RunJob, RunOutcome, drive
 
 __all__ = ["is_layer_config", "load_layer_config", "run_layer_config", "LayerOutcome"]
 
@@ -216,24 +214,9 @@ def _tracer_positions(table, setup):
     return arr
 
 
-@dataclass
-class LayerOutcome:
-    path: str
-    status: str
-    n_snapshots: int
-    t_end: float
-    steps: int
-    wall_time: float
-    resumed_from: float | None
-    vtk: str | None
-
-    def summary(self) -> str:
-        if self.status != "ok":
-            return f"{self.status}: {self.n_snapshots} snapshots to t = {self.t_end:.6g} s; file {self.path}"
-        resumed = f" (resumed from t = {self.resumed_from:.6g} s)" if self.resumed_from is not None else ""
-        vtk = f"; VTK {self.vtk}" if self.vtk else ""
-        return (f"{self.status}: {self.n_snapshots} snapshots to t = {self.t_end:.6g} s, {self.steps} steps{resumed}; "
-                f"wall time {self.wall_time:.3g} s; wrote {self.path}{vtk}")
+LayerOutcome = RunOutcome
+"""The outcome of a layer run: the one outcome of every run (:class:`bsrflow.io.driver.RunOutcome`;
+``top_max_over_d`` is None, ``vtk`` the ParaView collection of a run with VTK output)."""
 
 
 def _checkpoint_times(save_times, interval):
@@ -245,141 +228,191 @@ def _checkpoint_times(save_times, interval):
     return np.asarray(save_times[step::step], dtype=float)
 
 
-def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=None) -> LayerOutcome:
-    """Run a layer config into ``out`` (module docstring)."""
+def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=None) -> RunOutcome:
+    """Run a layer config into ``out`` (module docstring) through the driver every run shares,
+    :func:`bsrflow.io.driver.drive` (checkpoints, ``--resume``, what stops a run)."""
     from ..physics.packing_bed import PackingBed
-    from .paths import check_output_file
-    if resume and not os.path.exists(checkpoint_path(check_output_file(out, "--out"))):
-        done = _complete_layer(out, cfg, log or (lambda msg: None))
-        if done is not None:
-            return done
-    if isinstance(cfg.setup, PackingBed):
-        return _run_packing_bed(cfg, out, resume=resume, progress=progress, log=log)
-    from ..numerics.solver import Scheme
-    from ..numerics.solver_nd import SimulationND
-    from .netcdf import read_snapshots
-    from .paths import check_output_file
-
-    out = check_output_file(out, "--out")
-    save_times, ck_times, ck_file, vtk_stem = _run_files(cfg, out)
-    setup = cfg.setup
-    grid = setup.grid()
-    scheme = Scheme.preset(setup.scheme, positivity=bool(setup.positivity))
-    sim = SimulationND(setup.model(), grid, scheme, average=setup.average,
-                       vacuum_density=1e-4 * setup.bottom_density, top_tolerance=1e-3 * setup.bottom_density)
-    motion = setup.model().motion
-    floor = lambda t: motion.state(t)[0]  # noqa: E731
-    t0, steps0, resumed, wall0 = 0.0, 0, None, 0.0
-    u0, rho0 = setup.initial_state(grid)
-    attrs = {"config": cfg.text, "config_resolved": cfg.resolved_text(), "scheme": scheme.name, "dimension": grid.dim,
-             "diameter": float(setup.diameter)}
-    tracers = None if cfg.tracers is None else np.array(cfg.tracers, dtype=float)
-    n_tr = 0 if tracers is None else tracers.shape[0]
-    if resume:
-        ck = _read_layer_checkpoint(ck_file, cfg)
-        t0, steps0, resumed, wall0 = float(ck.t), int(ck.steps), float(ck.t), float(ck.wall_time)
-        u0, rho0 = ck.u, ck.rho
-        if tracers is not None:
-            tracers = _checkpoint_tracers(ck, tracers, ck_file)
-    writer, save_times = _layer_writer(out, grid, floor, attrs, save_times, n_tr, ck_file, t0 if resume else None)
-    vtk_writer = _vtk_writer(vtk_stem, grid, t0 if resume else None)
-    observers = [writer] + ([vtk_writer] if vtk_writer else [])
-    last = {"t": None}
-
-    def on_checkpoint(t, u, rho, tr, steps):
-        write_checkpoint(ck_file, Checkpoint(t, u, rho, np.zeros((0, grid.dim)) if tr is None else tr,
-                                             steps0 + steps, 0, wall0 + time.perf_counter() - wall, writer.n, cfg.text))
-        last["t"] = t
-
-    wall = time.perf_counter()
-    with _closing_on_failure(writer, out, ck_file, last):
-        res = sim.run(u0, rho0, setup.t_end, t_start=t0, save_times=save_times, observers=observers,
-                      progress=progress, extra_event_times=ck_times[ck_times > t0], on_event=on_checkpoint,
-                      restart=resume, tracers=tracers)
-    writer.close("ok", steps=int(steps0 + res.steps))
-    if os.path.exists(ck_file):
-        os.remove(ck_file)                            # the run is complete
-    data, _ = read_snapshots(out)
-    return LayerOutcome(out, "ok", int(data["time"].size), float(setup.t_end), int(steps0 + res.steps),
-                        wall0 + time.perf_counter() - wall, resumed, vtk_writer.pvd.as_posix() if vtk_writer else None)
+    job_class = PackingBedJob if isinstance(cfg.setup, PackingBed) else LayerJob
+    return drive(job_class(cfg, out), resume=resume, progress=progress, log=log)
 
 
-def _run_packing_bed(cfg: LayerConfig, out, *, resume=False, progress=None, log=None) -> LayerOutcome:
-    """:func:`run_layer_config` for ``kind = "packing_bed"``: the n-D packing continuum
-    (:class:`bsrflow.numerics.packing_nd.EulerianPackingND`) through the shared controller into
-    the same n-D netCDF file (and VTK files), with checkpoints of its named fields (the
-    conserved state, history included) and ``--resume`` bit for bit."""
-    from ..numerics.controller import drive_events
-    from .netcdf import read_snapshots
-    from .paths import check_output_file
+class _LayerBase(RunJob):
+    """What the two layer jobs share: the config and its schedules, the n-D netCDF writer
+    (:class:`bsrflow.io.netcdf.NetCDFWriterND`), the VTK files, the tracers of a ``[tracers]``
+    table."""
 
-    out = check_output_file(out, "--out")
-    save_times, ck_times, ck_file, vtk_stem = _run_files(cfg, out)
-    log = log or (lambda msg: None)
-    setup = cfg.setup
-    tracers = None if cfg.tracers is None else np.array(cfg.tracers, dtype=float)
-    n_tr = 0 if tracers is None else tracers.shape[0]
-    disc = setup.discretisation(tracers)
-    grid = disc.grid
-    motion = disc.motion
-    floor = lambda t: motion.state(t)[0]  # noqa: E731
-    t0, steps0, resumed, wall0 = 0.0, 0, None, 0.0
-    attrs = {"config": cfg.text, "config_resolved": cfg.resolved_text(), "scheme": f"packing_{disc.name}",
-             "kernel": "packing", "dimension": grid.dim, "scenario": f"packing_bed_{grid.dim}d",
-             "diameter": float(setup.diameter)}
-    if resume:
-        ck = _read_layer_checkpoint(ck_file, cfg)
+    checkpoint_option = "output.checkpoint_every"
+    per_depth = False
+
+    def __init__(self, cfg: LayerConfig, out):
+        self.cfg = cfg
+        self.out = os.fspath(out)
+        self.setup = cfg.setup
+        self.t_end = float(cfg.setup.t_end)
+        self.config_text = cfg.text
+        self.tracers = None if cfg.tracers is None else np.array(cfg.tracers, dtype=float)
+        self.n_tracers = 0 if self.tracers is None else self.tracers.shape[0]
+        self.checkpoint_interval = 0.1 if cfg.checkpoint_every is None else float(cfg.checkpoint_every)
+        self.vtk_writer = None
+
+    def check_paths(self):
+        self.save_times, self.checkpoint_times, _, self.vtk_stem = _run_files(self.cfg, self.out)
+
+    def config_difference(self, text, where):
+        return _toml_difference(self.config_text, text, where)
+
+    def _floor(self, t):
+        return self.motion.state(t)[0]
+
+    def new_writer(self):
+        from .netcdf import NetCDFWriterND
+        return NetCDFWriterND(self.out, self.grid, self._floor, self._attrs(), expected_snapshots=self.save_times.size,
+                              n_tracers=self.n_tracers, per_depth=self.per_depth)
+
+    def reopen_writer(self, t_checkpoint):
+        from .netcdf import NetCDFWriterND
+        return NetCDFWriterND.resume(self.out, t_checkpoint, self.grid, self._floor,
+                                     expected_snapshots=self.save_times.size, n_tracers=self.n_tracers,
+                                     per_depth=self.per_depth)
+
+    def _restored_tracers(self, ck):
+        if self.tracers is None:
+            return None
+        return _checkpoint_tracers(ck, self.tracers, checkpoint_path(self.out))
+
+    def observers(self, writer, resumed_at):
+        self.vtk_writer = _vtk_writer(self.vtk_stem, self.grid, resumed_at, per_depth=self.per_depth)
+        return [writer] + ([self.vtk_writer] if self.vtk_writer else [])
+
+    def vtk_collection(self):
+        return self.vtk_writer.pvd.as_posix() if self.vtk_writer else None
+
+
+class LayerJob(_LayerBase):
+    """A 2-D / 3-D layer of the seed's kernel (``tapped_layer``, ``vibrated_box``):
+    :class:`bsrflow.numerics.solver_nd.SimulationND`, checkpoints of (u, ρ, tracers)."""
+
+    name = "n-D solver (at its first step)"
+
+    def prepare(self):
+        from ..numerics.solver import Scheme
+        from ..numerics.solver_nd import SimulationND
+        setup = self.setup
+        self.grid = setup.grid()
+        self.scheme = Scheme.preset(setup.scheme, positivity=bool(setup.positivity))
+        model = setup.model()
+        self.sim = SimulationND(model, self.grid, self.scheme, average=setup.average,
+                                vacuum_density=1e-4 * setup.bottom_density,
+                                top_tolerance=1e-3 * setup.bottom_density)
+        self.motion = model.motion
+        self.u, self.rho = setup.initial_state(self.grid)
+        self.steps0, self.steps_run, self.restart = 0, 0, False
+
+    def _attrs(self):
+        return {"config": self.cfg.text, "config_resolved": self.cfg.resolved_text(), "scheme": self.scheme.name,
+                "dimension": self.grid.dim, "diameter": float(self.setup.diameter)}
+
+    def restore(self, ck):
+        if ck.u.shape != self.u.shape or ck.rho.shape != self.rho.shape:
+            raise ConfigError("--resume", "the checkpoint's state does not match the grid of the config")
+        self.u, self.rho, self.steps0, self.restart = ck.u, ck.rho, int(ck.steps), True
+        self.tracers = self._restored_tracers(ck)
+
+    def integrate(self, t0, save_times, checkpoint_times, observers, progress, on_checkpoint):
+        dim = self.grid.dim
+
+        def on_event(t, u, rho, tr, steps):
+            self.steps_run = steps
+            on_checkpoint(t, u=u, rho=rho, tracers=np.zeros((0, dim)) if tr is None else tr)
+
+        res = self.sim.run(self.u, self.rho, self.t_end, t_start=t0, save_times=save_times, observers=observers,
+                           progress=progress, extra_event_times=checkpoint_times, on_event=on_event,
+                           restart=self.restart, tracers=self.tracers)
+        self.steps_run = res.steps
+
+    def total_steps(self):
+        return self.steps0 + self.steps_run
+
+
+class PackingBedJob(_LayerBase):
+    """``kind = "packing_bed"``: the n-D packing continuum
+    (:class:`bsrflow.numerics.packing_nd.EulerianPackingND`) through the packing controller
+    :func:`bsrflow.numerics.controller.drive_events`; checkpoints of its named fields (the
+    conserved state, history included) and its tracers; a 2-D bed's units per metre of depth."""
+
+    per_depth = True
+
+    def prepare(self):
+        self.disc = self.setup.discretisation(self.tracers)
+        self.grid, self.motion = self.disc.grid, self.disc.motion
+        self.name = f"{self.grid.dim}-D packing solver"
+
+    def _attrs(self):
+        return {"config": self.cfg.text, "config_resolved": self.cfg.resolved_text(),
+                "scheme": f"packing_{self.disc.name}", "kernel": "packing", "dimension": self.grid.dim,
+                "scenario": f"packing_bed_{self.grid.dim}d", "diameter": float(self.setup.diameter)}
+
+    def restore(self, ck):
         try:
-            disc.load_fields(ck.fields or {})
+            self.disc.load_fields(ck.fields or {})
         except (KeyError, ValueError) as exc:
             raise ConfigError("--resume", f"the checkpoint's state does not match the config: {exc}") from None
-        if tracers is not None:
-            disc.set_tracers(_checkpoint_tracers(ck, tracers, ck_file))
-        t0, steps0, resumed, wall0 = float(ck.t), int(ck.steps), float(ck.t), float(ck.wall_time)
-        disc.counters[0] = steps0
-        disc.steps = steps0
-    writer, save_times = _layer_writer(out, grid, floor, attrs, save_times, n_tr, ck_file, t0 if resume else None,
-                                       per_depth=True)
-    vtk_writer = _vtk_writer(vtk_stem, grid, t0 if resume else None, per_depth=True)
-    observers = [writer] + ([vtk_writer] if vtk_writer else [])
-    if setup.stiffness_factor < 1.0:
-        log(f"reduced contact stiffness: K x {setup.stiffness_factor:.4g}, impact Mach number "
-            f"M = {setup.impact_mach():.3g}; its cost is measured on the 1-D column only (docs/model.md, "
-            "\"Stiffness\")")
-    last = {"t": None}
+        if self.tracers is not None:
+            self.disc.set_tracers(self._restored_tracers(ck))
+        self.disc.counters[0] = int(ck.steps)
+        self.disc.steps = int(ck.steps)
 
-    def save(t):
-        u, rho = disc.observe()
-        tr = disc.tracer_positions() if n_tr else None
-        for obs in observers:
-            obs(t, u, rho, tr)
-        if progress is not None:
-            progress(t)
+    def notes(self):
+        if self.setup.stiffness_factor >= 1.0:
+            return []
+        return [f"reduced contact stiffness: K x {self.setup.stiffness_factor:.4g}, impact Mach number "
+                f"M = {self.setup.impact_mach():.3g}; its cost is measured on the 1-D column only (docs/model.md, "
+                "\"Stiffness\")"]
 
-    def on_checkpoint(t):
-        write_checkpoint(ck_file, Checkpoint(t, np.zeros(0), np.zeros(0), disc.tracer_positions(), int(disc.counters[0]),
-                                             0, wall0 + time.perf_counter() - wall, writer.n, cfg.text,
-                                             fields={k: v.copy() for k, v in disc.fields.items()}))
-        last["t"] = t
-        if progress is not None:
-            progress(t)
+    def compile(self, t0):
+        self.disc.advance(t0, t0)
 
-    wall = time.perf_counter()
-    with _closing_on_failure(writer, out, ck_file, last):
-        log(f"compiling the {grid.dim}-D packing solver (once per process)")
-        disc.advance(t0, t0)
-        wall = time.perf_counter()
-        if progress is not None:
-            progress(t0)
-        drive_events(t0, float(setup.t_end), save_times, motion.jumps_between(t0, setup.t_end), ck_times[ck_times > t0],
-                     advance=disc.advance, apply_jump=disc.apply_velocity_jump, save=save, on_event=on_checkpoint)
-    steps = int(disc.counters[0])
-    writer.close("ok", steps=steps)
-    if os.path.exists(ck_file):
-        os.remove(ck_file)                            # the run is complete
-    data, _ = read_snapshots(out)
-    return LayerOutcome(out, "ok", int(data["time"].size), float(setup.t_end), steps,
-                        wall0 + time.perf_counter() - wall, resumed, vtk_writer.pvd.as_posix() if vtk_writer else None)
+    def integrate(self, t0, save_times, checkpoint_times, observers, progress, on_checkpoint):
+        from ..numerics.controller import drive_events
+        disc, n_tr = self.disc, self.n_tracers
+
+        def save(t):
+            u, rho = disc.observe()
+            tr = disc.tracer_positions() if n_tr else None
+            for obs in observers:
+                obs(t, u, rho, tr)
+            if progress is not None:
+                progress(t)
+
+        drive_events(t0, self.t_end, save_times, self.motion.jumps_between(t0, self.t_end), checkpoint_times,
+                     advance=disc.advance, apply_jump=disc.apply_velocity_jump, save=save,
+                     on_event=lambda t: on_checkpoint(t, tracers=disc.tracer_positions(), fields=disc.fields))
+
+    def total_steps(self):
+        return int(self.disc.counters[0])
+
+
+def _toml_difference(now: str, text: str, where: str) -> str:
+    """'' when the TOML ``text`` (of a checkpoint or an output) is the config ``now`` (comments and
+    layout aside), else its first differing key in words."""
+    try:
+        a, b = tomllib.loads(now), tomllib.loads(text)
+    except tomllib.TOMLDecodeError:
+        return "its config, which cannot be read"
+
+    def flat(d, prefix=""):
+        items = {}
+        for k, v in d.items():
+            if isinstance(v, dict):
+                items.update(flat(v, f"{prefix}{k}."))
+            else:
+                items[f"{prefix}{k}"] = v
+        return items
+    fa, fb = flat(a), flat(b)
+    for key in sorted(set(fa) | set(fb)):
+        if fa.get(key) != fb.get(key):
+            return f"{key} ({fb.get(key)!r} in {where}, {fa.get(key)!r} now)"
+    return ""
 
 
 def _run_files(cfg: LayerConfig, out):
@@ -396,34 +429,6 @@ def _run_files(cfg: LayerConfig, out):
     return save_times, _checkpoint_times(save_times, cfg.checkpoint_every), checkpoint_path(out), vtk_stem
 
 
-def _complete_layer(out, cfg: LayerConfig, log) -> LayerOutcome | None:
-    """The outcome of ``--resume`` on a layer output whose run finished (status "ok"; its
-    checkpoint was removed) by this config: nothing to do.  None when ``out`` is not such a file;
-    refused (one line) when another config wrote it."""
-    from .netcdf import finished_snapshots
-    data = finished_snapshots(out)
-    if data is None:
-        return None
-    if str(data["attrs"].get("config", "")) != cfg.text:
-        raise ConfigError("--resume", f"{out} was finished by another config; run without --resume to start over")
-    log(f"{out} is complete already (status ok); nothing to resume")
-    return LayerOutcome(os.fspath(out), "complete already", int(data["time"].size), float(data["time"][-1]),
-                        int(data["attrs"].get("steps", 0)), 0.0, None, None)
-
-
-def _read_layer_checkpoint(ck_file, cfg: LayerConfig) -> Checkpoint:
-    """The checkpoint a ``--resume`` continues from, refused in one line when it is missing or
-    was written by another config."""
-    if not os.path.exists(ck_file):
-        raise ConfigError("--resume", f"no checkpoint {ck_file}; run without --resume")
-    ck = read_checkpoint(ck_file)
-    if ck.config != cfg.text:
-        raise ConfigError("--resume", f"{ck_file} was written by another config; run without --resume")
-    from .runner import check_checkpoint_version
-    check_checkpoint_version(ck, ck_file)
-    return ck
-
-
 def _checkpoint_tracers(ck: Checkpoint, tracers, ck_file):
     """The checkpoint's tracer positions, refused in one line when their number is not the
     config's."""
@@ -431,37 +436,6 @@ def _checkpoint_tracers(ck: Checkpoint, tracers, ck_file):
         raise ConfigError("--resume", f"{ck_file} holds {ck.tracers.shape[0]} tracers, the config "
                           f"{tracers.shape[0]}; run without --resume")
     return ck.tracers
-
-
-def _layer_writer(out, grid, floor, attrs, save_times, n_tracers, ck_file, resumed_at, per_depth=False):
-    """(the n-D netCDF writer, the save times still to come) of a layer run: a new file (a stale
-    checkpoint of an earlier run removed), or with ``resumed_at`` [s] the file kept up to it.
-    ``per_depth``: a 2-D run of a material uniform in depth (the packing bed; units per metre of
-    depth, :func:`bsrflow.io.netcdf.schema_nd`)."""
-    from .netcdf import NetCDFWriterND
-    from .runner import output_attrs
-    if resumed_at is not None:
-        if not os.path.exists(out):
-            raise ConfigError("--resume", f"the checkpoint {ck_file} exists but the output {out} does not; "
-                              "run without --resume to start over")
-        if str(output_attrs(out).get("config", "")) != attrs["config"]:
-            raise ConfigError("--resume", f"{out} was written by another config; run without --resume to "
-                              "start over")
-        try:
-            writer = NetCDFWriterND.resume(out, resumed_at, grid, floor, expected_snapshots=save_times.size,
-                                           n_tracers=n_tracers, per_depth=per_depth)
-        except OutputPathError:                     # no room for the rewritten file
-            raise
-        except Exception as exc:                    # an unreadable or foreign file
-            raise ConfigError("--resume", f"cannot reopen {out}: {type(exc).__name__}: {exc}; run without "
-                              "--resume to start over") from None
-        return writer, save_times[save_times >= resumed_at]
-    if os.path.exists(ck_file):
-        os.remove(ck_file)                            # stale: belongs to an earlier run
-    writer = NetCDFWriterND(out, grid, floor, attrs, expected_snapshots=save_times.size, n_tracers=n_tracers,
-                            per_depth=per_depth)
-    writer.check_space()                              # a full disk refused before the run
-    return writer, save_times
 
 
 def _vtk_writer(vtk_stem, grid, keep_before, per_depth=False):
@@ -476,33 +450,3 @@ def _vtk_writer(vtk_stem, grid, keep_before, per_depth=False):
     if keep_before is not None:
         w.keep_before(keep_before)
     return w
-
-
-@contextlib.contextmanager
-def _closing_on_failure(writer, out, ck_file, last):
-    """Close the netCDF ``writer`` with what stopped a layer run, then re-raise: a monitor's
-    message, an interrupt (Ctrl-C or SIGTERM: one line on what was kept and whether ``--resume``
-    can continue from the checkpoint at ``last["t"]``, exit code 128 + the signal), or "failed"."""
-    from ..numerics.solver import SimulationError
-    try:
-        yield
-    except SimulationError as exc:
-        writer.close(f"stopped: {exc}")
-        raise
-    except KeyboardInterrupt as exc:
-        how = "by SIGTERM" if getattr(exc, "signal_name", "") == "SIGTERM" else "by Ctrl-C (SIGINT)"
-        writer.close(f"interrupted {how} after {writer.n} snapshots")
-        cont = (f"checkpoint {ck_file} at t = {last['t']:.6g} s: `--resume` continues from there"
-                if last["t"] is not None else "no checkpoint written yet: run again to start over")
-        exc.args = (f"interrupted {how}: {out} keeps {writer.n} snapshot(s); {cont}",)
-        exc.exit_code = 128 + int(getattr(exc, "signal_number", 2))
-        raise
-    except OSError as exc:
-        if isinstance(exc, BrokenPipeError):        # `| head` went away: not a failed write of ours
-            writer.close("failed")
-            raise
-        from .runner import write_failed
-        raise write_failed(writer, exc) from exc
-    except BaseException:
-        writer.close("failed")
-        raise

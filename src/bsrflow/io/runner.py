@@ -23,60 +23,18 @@ How a resumed run equals an uninterrupted one bit for bit
 
 from __future__ import annotations
 
-import contextlib
-import errno
 import os
-import time as _time
 import tomllib
-from dataclasses import dataclass
 
 import numpy as np
 
-from ..numerics.solver import SimulationError
 from ..physics.column import initial_density
-from .checkpoint import Checkpoint, checkpoint_path, read_checkpoint, write_checkpoint
 from .config import Config, ConfigError, saved_config
-from .netcdf import NetCDFWriter, finished_snapshots
-from .paths import OutputPathError, check_output_file
+from .driver import RunJob, RunOutcome, check_checkpoint_version, drive, output_attrs, write_failed
+from .netcdf import NetCDFWriter
 
-__all__ = ["run_config", "RunOutcome", "column_simulation"]
-
-
-@dataclass
-class RunOutcome:
-    """What a finished run wrote.
-
-    path : the netCDF file; status : "ok" or "complete already" (``--resume`` on a finished file);
-    n_snapshots : snapshots in the file; t_end [s]; steps : accepted time steps from t = 0;
-    rejected_steps : rejected adaptive steps from t = 0 (``adaptive``: the scheme has error control);
-    wall_time [s] : wall-clock time of the time loop over all segments (without compiling);
-    compile_time [s] : compiling the time loop in this process; top_max_over_d : maximum lab-frame height of
-    the top tracer in units of d, at ``t_top_max`` [s]; resumed_from [s] : checkpoint time or None.
-    """
-
-    path: str
-    status: str
-    n_snapshots: int
-    t_end: float
-    steps: int
-    wall_time: float
-    top_max_over_d: float
-    t_top_max: float
-    resumed_from: float | None = None
-    compile_time: float = 0.0
-    rejected_steps: int = 0
-    adaptive: bool = False
-
-    def summary(self) -> str:
-        """One line: top max over d, steps, wall time, file."""
-        top = f"top max {self.top_max_over_d:.4g} d at t = {self.t_top_max:.4g} s"
-        if self.status != "ok":
-            return f"{self.status}: {self.n_snapshots} snapshots to t = {self.t_end:.6g} s; {top}; file {self.path}"
-        resumed = f" (resumed from t = {self.resumed_from:.6g} s)" if self.resumed_from is not None else ""
-        rejected = f" ({self.rejected_steps} rejected)" if self.adaptive else ""
-        return (f"{self.status}: {self.n_snapshots} snapshots to t = {self.t_end:.6g} s, {self.steps} steps"
-                f"{rejected}{resumed}; {top}; wall time {self.wall_time:.3g} s (+ {self.compile_time:.3g} s "
-                f"compiling); wrote {self.path}")
+__all__ = ["run_config", "RunOutcome", "column_simulation", "ColumnJob", "PackingColumnJob",
+           "check_checkpoint_version", "output_attrs", "write_failed"]
 
 
 def column_simulation(config: Config):
@@ -112,324 +70,139 @@ def run_config(config: Config, out, *, resume: bool = False, progress=None, log=
     every snapshot saved and its ``status`` attribute is the message.  A KeyboardInterrupt
     (Ctrl-C; ``bsrflow run`` raises one with ``signal_name = "SIGTERM"`` on SIGTERM) closes the
     file with status "interrupted ..." and is re-raised with one line as its message (what was
-    kept, whether ``--resume`` can continue) and ``exit_code`` 128 + the signal number.
+    kept, whether ``--resume`` can continue) and ``exit_code`` 128 + the signal number.  The
+    run goes through the driver every run shares, :func:`bsrflow.io.driver.drive`.
     """
-    out = os.fspath(out)
-    log = log or (lambda msg: None)
-    check_output_file(out, "--out")                   # before any work (bsrflow.io.paths)
-    ckpt_file = checkpoint_path(out)
-    if os.path.isdir(ckpt_file):
-        raise ConfigError("--out", f"the checkpoint file {ckpt_file} of this output is a directory")
-    if resume and not os.path.exists(ckpt_file):
-        done = _complete_output(out, config, log)
-        if done is not None:
-            return done
-        raise ConfigError("--resume", f"no checkpoint {ckpt_file} to resume from (checkpoints are "
-                          "written unless run.checkpoint_every = 0); run without --resume to start over")
-    if config["model.kernel"] == "packing":
-        return _run_packing_config(config, out, resume=resume, progress=progress, log=log)
-    setup, grid, model, sim = column_simulation(config)
-    save_times = config.save_times()
-    ckpt_times = config.checkpoint_times()
-    t_end = float(config.run.t_end)
-    n_tr = setup.n_spheres
-    motion = model.motion
-
-    def floor(t):
-        return motion.state(t)[0]
-
-    steps0, rejected0, wall0, t0 = 0, 0, 0.0, 0.0
-    if resume:
-        if not os.path.exists(out):
-            raise ConfigError("--resume", f"the checkpoint {ckpt_file} exists but the output {out} does not; "
-                              "run without --resume to start over")
-        ck = _read_matching_checkpoint(config, ckpt_file)
-        if ck.u.shape != (grid.n_cells,) or ck.tracers.shape != (n_tr,):
-            raise ConfigError("--resume", f"the checkpoint's state does not match the grid of the config")
-        writer, kept = _reopen_output(out, ck.t, grid, n_tr, floor, save_times, config)
-        u0, rho0, tr0, t0 = ck.u, ck.rho, ck.tracers, ck.t
-        steps0, rejected0, wall0 = ck.steps, ck.rejected_steps, ck.wall_time
-        log(f"resuming from the checkpoint at t = {t0:.6g} s ({kept.size} snapshots kept in {out})")
-    else:
-        if os.path.exists(ckpt_file):
-            os.remove(ckpt_file)                       # stale: belongs to an earlier run
-        attrs = {"config": config.to_toml(), "scheme": sim.scheme.name, "diameter": float(setup.diameter)}
-        writer = NetCDFWriter(out, grid.x, grid.dx, n_tr, floor, attrs, expected_snapshots=save_times.size)
-        writer.check_space()                          # a full disk refused before the run
-        u0, rho0, tr0 = np.zeros(grid.n_cells), initial_density(setup, grid.x), setup.sphere_centres()
-
-    last_ckpt = [t0 if resume else None]             # time of the checkpoint on disk
-    toml_text = config.to_toml()
-    rejected_start = int(sim.counters[0])
-    wall_start = _time.perf_counter()
-
-    def on_checkpoint(t, u, rho, tr, steps):
-        write_checkpoint(ckpt_file, Checkpoint(
-            t=t, u=u, rho=rho, tracers=tr, steps=steps0 + steps,
-            rejected_steps=rejected0 + int(sim.counters[0]) - rejected_start,
-            wall_time=wall0 + _time.perf_counter() - wall_start, n_snapshots=writer.n, config=toml_text))
-        last_ckpt[0] = t
-        if progress is not None:
-            progress(t)
-
-    stop_attrs = lambda: {"rejected_steps": np.int64(rejected0 + int(sim.counters[0]) - rejected_start)}  # noqa: E731
-    with _closing_on_failure(writer, stop_attrs,
-                             lambda exc: _interrupted(exc, writer, out, resume, config, last_ckpt[0], ckpt_file,
-                                                      ckpt_times, t0)):
-        # compile the time loop now (a no-op advance: t_end = t), not in the middle of the progress bar
-        log("compiling the solver (once per process; about 10 s)")
-        compile_start = _time.perf_counter()
-        sim.advance(np.array(u0, float), np.array(rho0, float), t0, t0, np.array(tr0, float))
-        wall_start = _time.perf_counter()
-        compile_time = wall_start - compile_start
-        rejected_start = int(sim.counters[0])
-        if progress is not None:
-            progress(t0)
-        res = sim.run(u0, rho0, t_end, t_start=t0, save_times=save_times[save_times >= t0], tracers=tr0,
-                      observers=[writer], progress=progress, extra_event_times=ckpt_times[ckpt_times > t0],
-                      on_event=on_checkpoint, restart=resume)
-    rejected = rejected0 + int(sim.counters[0]) - rejected_start
-    writer.close("ok", steps=np.int64(steps0 + res.steps), rejected_steps=np.int64(rejected))
-    if os.path.exists(ckpt_file):
-        os.remove(ckpt_file)
-    t = writer.series("time")
-    top = writer.series("top") / setup.diameter
-    i = int(np.nanargmax(top)) if np.any(np.isfinite(top)) else 0
-    return RunOutcome(out, "ok", writer.n, float(t[-1]), steps0 + res.steps,
-                      wall0 + _time.perf_counter() - wall_start, float(top[i]), float(t[i]),
-                      resumed_from=t0 if resume else None, compile_time=compile_time,
-                      rejected_steps=rejected, adaptive=sim.scheme.rtol is not None)
+    job_class = PackingColumnJob if config["model.kernel"] == "packing" else ColumnJob
+    return drive(job_class(config, out), resume=resume, progress=progress, log=log)
 
 
-def _complete_output(out, config: Config, log) -> RunOutcome | None:
-    """The outcome of ``--resume`` on an output whose run finished (status "ok"; its checkpoint
-    was removed) by this config: nothing to do, the file as it is.  None when ``out`` is not
-    such a file; refused (one line) when another config wrote it.  The same for every column run
-    (the seed's kernel and both packing formulations)."""
-    data = finished_snapshots(out)
-    if data is None:
-        return None
-    try:
-        diff = _config_difference(config, saved_config(str(data["attrs"].get("config", ""))))
-    except (ValueError, tomllib.TOMLDecodeError):
-        diff = "its config, which cannot be read"
-    if diff:
-        raise ConfigError("--resume", f"{out} was finished by another config (it differs in {diff}); run "
-                          "without --resume to start over")
-    top = data["top"] / config.column_setup().diameter
-    i = int(np.nanargmax(top)) if np.any(np.isfinite(top)) else 0
-    log(f"{out} is complete already (status ok); nothing to resume")
-    return RunOutcome(out, "complete already", int(data["time"].size), float(data["time"][-1]), 0, 0.0,
-                      float(top[i]), float(data["time"][i]))
+class _ColumnBase(RunJob):
+    """What the two column jobs share: the config, its schedules, the comparison of configs, the
+    1-D netCDF writer (:class:`bsrflow.io.netcdf.NetCDFWriter`)."""
 
+    checkpoint_option = "run.checkpoint_every"
 
-def _read_matching_checkpoint(config: Config, ckpt_file) -> Checkpoint:
-    """The checkpoint of a resume, refused (one line) unless it was written by this config."""
-    try:
-        ck = read_checkpoint(ckpt_file)
-        old = saved_config(ck.config)
-    except (ValueError, tomllib.TOMLDecodeError) as exc:
-        raise ConfigError("--resume", f"cannot read the checkpoint: {exc}") from None
-    diff = _config_difference(config, old)
-    if diff:
-        raise ConfigError("--resume", f"the config differs from the checkpoint's in {diff}; resume with "
-                          "the same config or run without --resume to start over")
-    check_checkpoint_version(ck, ckpt_file)
-    return ck
+    def __init__(self, config: Config, out):
+        self.config = config
+        self.out = os.fspath(out)
+        self.setup = config.column_setup()
+        self.diameter = float(self.setup.diameter)
+        self.t_end = float(config.run.t_end)
+        self.save_times = config.save_times()
+        self.checkpoint_times = config.checkpoint_times()
+        self.checkpoint_interval = config.checkpoint_interval()
+        self.config_text = config.to_toml()
+        self.n_tracers = self.setup.n_spheres
 
-
-def check_checkpoint_version(ck: Checkpoint, ckpt_file) -> None:
-    """Refuse (one line) a checkpoint that another bsrflow version wrote: a resumed run equals an
-    uninterrupted one bit for bit only when the same code computes both parts."""
-    from .. import __version__
-    if ck.version != __version__:
-        raise ConfigError("--resume", f"{ckpt_file} was written by bsrflow {ck.version}, this is {__version__}; "
-                          "run without --resume to start over")
-
-
-def output_attrs(path) -> dict:
-    """The global attributes of an output file (read alone, without its data); ConfigError
-    ("--resume", one line) when it cannot be read."""
-    import h5py
-    try:
-        with h5py.File(os.fspath(path), "r", locking=False) as h:
-            return {k: (v.decode() if isinstance(v, bytes) else v) for k, v in h.attrs.items()}
-    except Exception as exc:                       # truncated, garbage, not HDF5
-        raise ConfigError("--resume", f"cannot reopen {path}: {type(exc).__name__}: {exc}; run without "
-                          "--resume to start over") from None
-
-
-def _reopen_output(out, t_ck, grid, n_tr, floor, save_times, config: Config):
-    """Reopen the output of a resumed run, keeping its snapshots before the checkpoint time
-    ``t_ck``; refused (one line) when another config wrote it or its snapshots are not exactly
-    the expected ones."""
-    text = str(output_attrs(out).get("config", ""))     # ConfigError when unreadable
-    try:
-        diff = _config_difference(config, saved_config(text), "the output")
-    except (ValueError, tomllib.TOMLDecodeError):
-        diff = "its config, which cannot be read"
-    if diff:
-        raise ConfigError("--resume", f"{out} was written by another config (it differs in {diff}); run "
-                          "without --resume to start over")
-    expected = save_times[save_times < t_ck]
-    try:
-        writer = NetCDFWriter.resume(out, t_ck, grid.x, grid.dx, n_tr, floor, expected_snapshots=save_times.size)
-    except OutputPathError:                        # no room for the rewritten file: one line as it is
-        raise
-    except Exception as exc:                       # unreadable or foreign file
-        raise ConfigError("--resume", f"cannot reopen {out}: {type(exc).__name__}: {exc}") from None
-    kept = writer.series("time")
-    if kept.size != expected.size or not np.array_equal(kept, expected):
-        writer.close("resume failed: snapshots missing before the checkpoint")
-        raise ConfigError("--resume", f"{out} holds {kept.size} snapshots before the checkpoint time "
-                          f"t = {t_ck:.6g} s, expected {expected.size}; run without --resume to start over")
-    return writer, kept
-
-
-@contextlib.contextmanager
-def _closing_on_failure(writer, stop_attrs, interrupted):
-    """Close ``writer`` with what stopped the run, then re-raise: a monitor's message (with the
-    attributes ``stop_attrs()``), an interrupt (``interrupted(exc)`` closes it and words the
-    message), or "failed: ..."; nothing written so far is lost."""
-    try:
-        yield
-    except SimulationError as exc:
-        writer.close(str(exc), **stop_attrs())
-        raise
-    except KeyboardInterrupt as exc:
-        interrupted(exc)
-        raise
-    except OSError as exc:
-        if isinstance(exc, BrokenPipeError):       # `| head` went away: not a failed write of ours
-            writer.close(f"failed: {type(exc).__name__}: {exc}")
-            raise
-        raise write_failed(writer, exc) from exc
-    except BaseException as exc:
-        writer.close(f"failed: {type(exc).__name__}: {exc}")
-        raise
-
-
-def write_failed(writer, exc: OSError) -> OSError:
-    """A write that failed in the middle of a run (a full disk, a file system gone read-only, a
-    checkpoint or VTK file that cannot be written): close ``writer`` with status "failed: ...",
-    or on a full (or read-only) disk as it is (status "running": writing the status could
-    leave the file unreadable; :meth:`NetCDFWriter.close_as_is`), and return an OSError whose one-line message says what
-    failed and what the output keeps (`bsrflow` prints it, exit code 1)."""
-    full = exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EIO)
-    try:
-        if full:              # a new status needs space: a failed metadata write breaks the file
-            writer.close_as_is()
-        else:
-            writer.close(f"failed: {exc}")
-    except Exception:
-        pass
-    times = writer.series("time")
-    kept = f"{writer.path} keeps {writer.n} snapshot(s)" + (f" up to t = {times[-1]:.6g} s" if writer.n else "")
-    if full and writer.n:
-        kept += ' (its status attribute left at "running")'
-    what = f"{exc.strerror or exc}" + (f": {exc.filename}" if exc.filename else "")
-    return OSError(exc.errno, f"{what}; the run stopped, {kept}")
-
-
-def _interrupted(exc, writer, out, resume, config, last_ckpt_t, ckpt_file, ckpt_times, t0):
-    """Close the file of an interrupted run (Ctrl-C or SIGTERM) with status "interrupted ..." and
-    give ``exc`` one line saying what was kept and whether ``--resume`` can continue."""
-    signame = getattr(exc, "signal_name", None) or "SIGINT"
-    how = "by SIGTERM" if signame == "SIGTERM" else "by Ctrl-C (SIGINT)"
-    times = writer.series("time")
-    kept = (f"{out} keeps {writer.n} snapshot(s) up to t = {times[-1]:.6g} s" if writer.n else
-            f"no snapshot was written ({out} {'was kept as it was' if resume else 'was not written'})")
-    writer.close(f"interrupted {how} after {writer.n} snapshots" +
-                 (f", up to t = {times[-1]:.6g} s" if writer.n else ""))
-    interval = config.checkpoint_interval()
-    if last_ckpt_t is not None and os.path.exists(ckpt_file):
-        cont = (f"checkpoint {ckpt_file} at t = {last_ckpt_t:.6g} s: `--resume` continues from there "
-                f"(snapshots after it are recomputed)")
-    elif interval <= 0.0:
-        cont = "no checkpoint (run.checkpoint_every = 0): `--resume` cannot continue; run again to start over"
-    else:
-        first = ckpt_times[ckpt_times > t0]
-        due = f" (the first was due at t = {first[0]:.6g} s)" if first.size else " (the run is shorter than run.checkpoint_every)"
-        cont = f"no checkpoint written yet{due}: `--resume` cannot continue; run again to start over"
-    exc.args = (f"interrupted {how}: {kept}; {cont}",)
-    exc.exit_code = 128 + int(getattr(exc, "signal_number", 2))
-
-
-def _run_packing_config(config: Config, out, *, resume=False, progress=None, log=None) -> RunOutcome:
-    """:func:`run_config` for ``model.kernel = "packing"``: the same netCDF output, checkpoints
-    of the discretisation's named fields (history included) and resume, through the packing
-    controller :func:`bsrflow.numerics.packing.run_packing`."""
-    from ..numerics.packing import run_packing
-    setup = config.column_setup()
-    disc = setup.packing_discretisation()
-    grid = disc.grid
-    ckpt_file = checkpoint_path(out)
-    save_times, ckpt_times = config.save_times(), config.checkpoint_times()
-    t_end = float(config.run.t_end)
-    n_tr = setup.n_spheres
-    motion = disc.motion
-
-    def floor(t):
-        return motion.state(t)[0]
-
-    steps0, wall0, t0 = 0, 0.0, 0.0
-    if resume:
-        if not os.path.exists(out):
-            raise ConfigError("--resume", f"the checkpoint {ckpt_file} exists but the output {out} does not; "
-                              "run without --resume to start over")
-        ck = _read_matching_checkpoint(config, ckpt_file)
+    def config_difference(self, text, where):
         try:
-            disc.load_fields(ck.fields or {})
+            return _config_difference(self.config, saved_config(text), where)
+        except (ValueError, tomllib.TOMLDecodeError):
+            return "its config, which cannot be read"
+
+    def _floor(self, t):
+        return self.motion.state(t)[0]
+
+    def _attrs(self) -> dict:
+        return {"config": self.config_text, "diameter": self.diameter}
+
+    def new_writer(self):
+        return NetCDFWriter(self.out, self.grid.x, self.grid.dx, self.n_tracers, self._floor, self._attrs(),
+                            expected_snapshots=self.save_times.size)
+
+    def reopen_writer(self, t_checkpoint):
+        return NetCDFWriter.resume(self.out, t_checkpoint, self.grid.x, self.grid.dx, self.n_tracers, self._floor,
+                                   expected_snapshots=self.save_times.size)
+
+
+class ColumnJob(_ColumnBase):
+    """The seed's kernel (or any grid kernel) on the 1-D grid: :class:`bsrflow.numerics.solver.Simulation`,
+    checkpoints of (u, ρ, tracers) and the step counters, adaptive steps' rejections counted."""
+
+    name = "solver"
+
+    def prepare(self):
+        _, self.grid, model, self.sim = column_simulation(self.config)
+        self.motion = model.motion
+        self.adaptive = self.sim.scheme.rtol is not None
+        self.u = np.zeros(self.grid.n_cells)
+        self.rho = initial_density(self.setup, self.grid.x)
+        self.tracers = self.setup.sphere_centres()
+        self.steps0, self.rejected0, self.steps_run = 0, 0, 0
+        self.rejected_start = int(self.sim.counters[0])
+        self.restart = False
+
+    def _attrs(self):
+        return {**super()._attrs(), "scheme": self.sim.scheme.name}
+
+    def restore(self, ck):
+        if ck.u.shape != (self.grid.n_cells,) or ck.tracers.shape != (self.n_tracers,):
+            raise ConfigError("--resume", "the checkpoint's state does not match the grid of the config")
+        self.u, self.rho, self.tracers = ck.u, ck.rho, ck.tracers
+        self.steps0, self.rejected0, self.restart = ck.steps, ck.rejected_steps, True
+
+    def compile(self, t0):
+        self.sim.advance(np.array(self.u, float), np.array(self.rho, float), t0, t0, np.array(self.tracers, float))
+        self.rejected_start = int(self.sim.counters[0])
+
+    def integrate(self, t0, save_times, checkpoint_times, observers, progress, on_checkpoint):
+        def on_event(t, u, rho, tr, steps):
+            self.steps_run = steps
+            on_checkpoint(t, u=u, rho=rho, tracers=tr)
+
+        res = self.sim.run(self.u, self.rho, self.t_end, t_start=t0, save_times=save_times, tracers=self.tracers,
+                           observers=observers, progress=progress, extra_event_times=checkpoint_times,
+                           on_event=on_event, restart=self.restart)
+        self.steps_run = res.steps
+
+    def total_steps(self):
+        return self.steps0 + self.steps_run
+
+    def rejected_steps(self):
+        return self.rejected0 + int(self.sim.counters[0]) - self.rejected_start
+
+    def stop_attrs(self):
+        return {"rejected_steps": np.int64(self.rejected_steps())}
+
+
+class PackingColumnJob(_ColumnBase):
+    """``model.kernel = "packing"``: either formulation (:meth:`ColumnSetup.packing_discretisation`)
+    through the packing controller :func:`bsrflow.numerics.packing.run_packing`; checkpoints of
+    the discretisation's named fields, history included."""
+
+    def prepare(self):
+        self.disc = self.setup.packing_discretisation()
+        self.grid, self.motion = self.disc.grid, self.disc.motion
+        self.name = f"{self.disc.name} packing solver"
+
+    def _attrs(self):
+        d = self.disc
+        return {**super()._attrs(), "scheme": f"packing_{d.name}", "kernel": "packing", "formulation": d.name,
+                "range_over_d": float(d.law.range_over_d)}
+
+    def restore(self, ck):
+        try:
+            self.disc.load_fields(ck.fields or {})
         except (KeyError, ValueError) as exc:
             raise ConfigError("--resume", f"the checkpoint's state does not match the config: {exc}") from None
-        disc.counters[0] = ck.steps
-        disc.steps = ck.steps
-        writer, kept = _reopen_output(out, ck.t, grid, n_tr, floor, save_times, config)
-        t0, steps0, wall0 = ck.t, ck.steps, ck.wall_time
-        log(f"resuming from the checkpoint at t = {t0:.6g} s ({kept.size} snapshots kept in {out})")
-    else:
-        if os.path.exists(ckpt_file):
-            os.remove(ckpt_file)
-        attrs = {"config": config.to_toml(), "scheme": f"packing_{disc.name}", "diameter": float(setup.diameter),
-                 "kernel": "packing", "formulation": disc.name, "range_over_d": float(disc.law.range_over_d)}
-        writer = NetCDFWriter(out, grid.x, grid.dx, n_tr, floor, attrs, expected_snapshots=save_times.size)
-        writer.check_space()                          # a full disk refused before the run
-    if setup.stiffness_factor < 1.0:
-        log(stiffness_note(setup))
-    last_ckpt = [t0 if resume else None]             # time of the checkpoint on disk
+        self.disc.counters[0] = ck.steps
+        self.disc.steps = ck.steps
 
-    def on_checkpoint(t, d):
-        last_ckpt[0] = t
-        write_checkpoint(ckpt_file, Checkpoint(
-            t=t, u=np.zeros(0), rho=np.zeros(0), tracers=np.zeros(0), steps=int(d.counters[0]), rejected_steps=0,
-            wall_time=wall0 + _time.perf_counter() - wall_start, n_snapshots=writer.n, config=config.to_toml(),
-            fields={k: v.copy() for k, v in d.fields.items()}))
-        if progress is not None:
-            progress(t)
+    def notes(self):
+        return [stiffness_note(self.setup)] if self.setup.stiffness_factor < 1.0 else []
 
-    wall_start = _time.perf_counter()
-    stop_attrs = lambda: {"steps": np.int64(disc.counters[0]), "rejected_steps": np.int64(0)}  # noqa: E731
-    with _closing_on_failure(writer, stop_attrs,
-                             lambda exc: _interrupted(exc, writer, out, resume, config, last_ckpt[0], ckpt_file,
-                                                      ckpt_times, t0)):
-        log(f"compiling the {disc.name} packing solver (once per process)")
-        compile_start = _time.perf_counter()
-        disc.advance(t0, t0)
-        wall_start = _time.perf_counter()
-        if progress is not None:
-            progress(t0)
-        run_packing(disc, t_end, save_times[save_times >= t0], t_start=t0, observers=[writer], progress=progress,
-                    extra_event_times=ckpt_times[ckpt_times > t0], on_event=on_checkpoint)
-    steps = int(disc.counters[0])
-    writer.close("ok", steps=np.int64(steps), rejected_steps=np.int64(0))
-    if os.path.exists(ckpt_file):
-        os.remove(ckpt_file)
-    t = writer.series("time")
-    top = writer.series("top") / setup.diameter
-    i = int(np.nanargmax(top)) if np.any(np.isfinite(top)) else 0
-    return RunOutcome(out, "ok", writer.n, float(t[-1]), steps, wall0 + _time.perf_counter() - wall_start,
-                      float(top[i]), float(t[i]), resumed_from=t0 if resume else None,
-                      compile_time=wall_start - compile_start)
+    def compile(self, t0):
+        self.disc.advance(t0, t0)
+
+    def integrate(self, t0, save_times, checkpoint_times, observers, progress, on_checkpoint):
+        from ..numerics.packing import run_packing
+        run_packing(self.disc, self.t_end, save_times, t_start=t0, observers=observers, progress=progress,
+                    extra_event_times=checkpoint_times,
+                    on_event=lambda t, d: on_checkpoint(t, fields=d.fields))
+
+    def total_steps(self):
+        return int(self.disc.counters[0])
 
 
 def stiffness_note(setup) -> str:

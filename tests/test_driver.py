@@ -1,0 +1,109 @@
+"""Issue #19, one code path: every kind of `bsrflow run` (a column of the seed's kernel, a packing
+column, a 2-D layer of the seed's kernel, a 2-D packing bed) goes through the one driver
+(bsrflow.io.driver.drive), so its interrupts, refusals and outcome read alike."""
+import pytest
+import xarray as xr
+
+import bsrflow.io.driver as driver
+from bsrflow.cli import main
+from bsrflow.io.layer_runner import LayerJob, PackingBedJob
+from bsrflow.io.runner import ColumnJob, PackingColumnJob
+
+SEED = "[run]\nt_end = 0.05\nsave_every = 0.01\ncheckpoint_every = 0.02\n"
+PACKING = '[model]\nkernel = "packing"\n[run]\nt_end = 0.05\nsave_every = 0.01\ncheckpoint_every = 0.02\n'
+LAYER = ('[layer]\nkind = "tapped_layer"\ndim = 2\nt_end = 0.05\nsave_every = 0.01\n'
+         '[output]\ncheckpoint_every = 0.02\n')
+BED = ('[layer]\nkind = "packing_bed"\ndim = 2\nbox_width = 0.01\nbed_height = 0.01\n'
+       't_end = 0.005\nsave_every = 0.001\n[output]\ncheckpoint_every = 0.002\n')
+KINDS = {"seed": (SEED, ColumnJob, 0.02, 0.01), "packing": (PACKING, PackingColumnJob, 0.02, 0.01),
+         "layer": (LAYER, LayerJob, 0.02, 0.01), "bed": (BED, PackingBedJob, 0.002, 0.001)}
+
+pytestmark = pytest.mark.usefixtures("one_numba_thread")
+
+
+@pytest.mark.parametrize("kind", list(KINDS))
+def test_every_kind_of_run_goes_through_the_driver(tmp_path, monkeypatch, kind):
+    """`bsrflow run` of each kind builds its job and hands it to bsrflow.io.driver.drive."""
+    text, job_class, _, _ = KINDS[kind]
+    seen = []
+    real = driver.drive
+
+    def spy(job, **kw):
+        seen.append(type(job))
+        return real(job, **kw)
+
+    import bsrflow.io.layer_runner as layer_runner
+    import bsrflow.io.runner as runner
+    monkeypatch.setattr(runner, "drive", spy)
+    monkeypatch.setattr(layer_runner, "drive", spy)
+    (tmp_path / "c.toml").write_text(text)
+    assert main(["run", str(tmp_path / "c.toml"), "--out", str(tmp_path / "c.nc"), "--quiet"]) == 0
+    assert seen == [job_class]
+    with xr.open_dataset(tmp_path / "c.nc") as ds:
+        assert ds.attrs["status"] == "ok" and int(ds.attrs["steps"]) > 0
+
+
+@pytest.mark.parametrize("kind", list(KINDS))
+@pytest.mark.parametrize("when", ["before", "after"], ids=["before_first_checkpoint", "after_a_checkpoint"])
+def test_an_interrupt_reads_alike_for_every_kind(tmp_path, capsys, monkeypatch, kind, when):
+    """Ctrl-C before the first checkpoint says when it was due and that --resume cannot continue; after
+    one, which checkpoint --resume continues from; the file keeps its snapshots with the same status words
+    (the layer runs said less: no times, no due checkpoint)."""
+    text, _, t_ck, dt_save = KINDS[kind]
+    # the progress callback runs at every save and after every checkpoint is written: stop at the first
+    # save (before the first checkpoint) or at the save after the first checkpoint
+    stop_after = 0.5 * dt_save if when == "before" else t_ck + 0.5 * dt_save
+    real = driver.drive
+
+    def stopping(job, **kw):
+        def progress(t):
+            if t > stop_after:
+                raise KeyboardInterrupt()
+        kw["progress"] = progress
+        return real(job, **kw)
+
+    import bsrflow.io.layer_runner as layer_runner
+    import bsrflow.io.runner as runner
+    monkeypatch.setattr(runner, "drive", stopping)
+    monkeypatch.setattr(layer_runner, "drive", stopping)
+    (tmp_path / "c.toml").write_text(text)
+    out = tmp_path / "c.nc"
+    assert main(["run", str(tmp_path / "c.toml"), "--out", str(out), "--quiet"]) == 130
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"bsrflow run: interrupted by Ctrl-C (SIGINT): {out} keeps ")
+    with xr.open_dataset(out) as ds:
+        n, t_last = ds.sizes["time"], float(ds["time"].values[-1])
+        assert ds.attrs["status"] == f"interrupted by Ctrl-C (SIGINT) after {n} snapshots, up to t = {t_last:.6g} s"
+    assert f"keeps {n} snapshot(s) up to t = {t_last:.6g} s" in lines[0]
+    if when == "before":
+        assert f"no checkpoint written yet (the first was due at t = {t_ck:.6g} s)" in lines[0], lines[0]
+        assert not (tmp_path / "c.nc.ckpt").exists()
+    else:
+        assert f"checkpoint {out}.ckpt at t = {t_ck:.6g} s: `--resume` continues from there" in lines[0], lines[0]
+
+
+@pytest.mark.parametrize("kind", ["layer", "bed"])
+def test_a_layer_resume_names_what_differs_and_ignores_comments(tmp_path, capsys, kind):
+    """A layer's checkpoint is compared with the config key by key (as a column's is): a changed value is
+    named in the one-line refusal; a comment or blank line added to the config is not a difference."""
+    text, _, t_ck, _ = KINDS[kind]
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(text)
+    out = tmp_path / "c.nc"
+    import bsrflow.io.layer_runner as layer_runner
+    from bsrflow.io.layer_runner import load_layer_config
+
+    def stop(t):
+        if t > 1.5 * t_ck:
+            raise KeyboardInterrupt()
+    with pytest.raises(KeyboardInterrupt):
+        layer_runner.run_layer_config(load_layer_config(cfg), out, progress=stop)
+    cfg.write_text("# the same run, commented\n" + text.replace("save_every", "\n# the snapshots\nsave_every"))
+    changed = text.replace("t_end = 0.05", "t_end = 0.06").replace("t_end = 0.005", "t_end = 0.006")
+    (tmp_path / "d.toml").write_text(changed)
+    assert main(["run", str(tmp_path / "d.toml"), "--out", str(out), "--resume", "--quiet"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "the config differs from the checkpoint's in layer.t_end" in lines[0], lines
+    assert main(["run", str(cfg), "--out", str(out), "--resume", "--quiet"]) == 0
+    with xr.open_dataset(out) as ds:
+        assert ds.attrs["status"] == "ok"
