@@ -54,7 +54,7 @@ def main(argv=None) -> int:
     print(f"overhead: {med:+.3f} s of medians ({100 * med / statistics.median(walls['off']):+.1f}%), "
           f"{low:+.3f} s of minima ({100 * low / min(walls['off']):+.1f}%)")
     n = on.column_setup().grid().n_cells
-    ck = Checkpoint(0.1, np.zeros(n), np.ones(n), np.ones(20), 1, 0, 0.0, 1, on.to_toml())
+    ck = Checkpoint(0.1, {"u": np.zeros(n), "rho": np.ones(n)}, np.ones(20), 1, 0, 0.0, 1, on.to_toml())
     ts = []
     for _ in range(30):
         t = time.perf_counter()

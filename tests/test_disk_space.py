@@ -117,7 +117,7 @@ def test_checkpoint_and_vtk_write_errors_name_their_file(tmp_path, monkeypatch):
         raise OSError(errno.ENOSPC, "No space left on device")
 
     monkeypatch.setattr(checkpoint.np, "savez", full)
-    ck = Checkpoint(t=0.0, u=np.zeros(3), rho=np.ones(3), tracers=np.zeros(0), steps=0, rejected_steps=0,
+    ck = Checkpoint(t=0.0, fields={"u": np.zeros(3), "rho": np.ones(3)}, tracers=np.zeros(0), steps=0, rejected_steps=0,
                     wall_time=0.0, n_snapshots=0, config="")
     with pytest.raises(OSError, match=r"cannot write the checkpoint \(No space left on device\)") as info:
         write_checkpoint(tmp_path / "a.ckpt", ck)

@@ -107,3 +107,49 @@ def test_a_layer_resume_names_what_differs_and_ignores_comments(tmp_path, capsys
     assert main(["run", str(cfg), "--out", str(out), "--resume", "--quiet"]) == 0
     with xr.open_dataset(out) as ds:
         assert ds.attrs["status"] == "ok"
+
+
+@pytest.mark.parametrize("kind, names", [("seed", {"u", "rho"}), ("packing", {"position", "velocity", "delta_max"}),
+                                         ("layer", {"u", "rho"}),
+                                         ("bed", {"rho", "momentum_x", "momentum_z", "rho_delta_max"})])
+def test_every_checkpoint_holds_named_fields_and_resumes(tmp_path, capsys, kind, names):
+    """One restart format: every kind of run checkpoints its state as named fields (the seed's grid u and
+    rho, the packing discretisations theirs, history included); --resume from it finishes the run.  A
+    checkpoint of the old format (1: the seed's u and rho apart) is refused in one line, as is one whose
+    fields are not the run's."""
+    import numpy as np
+    from bsrflow.io.checkpoint import read_checkpoint, write_checkpoint
+    from dataclasses import replace
+    text, _, t_ck, dt_save = KINDS[kind]
+    real = driver.drive
+    cfg, out = tmp_path / "c.toml", tmp_path / "c.nc"
+    cfg.write_text(text)
+
+    def stop(t):
+        if t > t_ck + 0.5 * dt_save:
+            raise KeyboardInterrupt()
+    import bsrflow.io.layer_runner as layer_runner
+    import bsrflow.io.runner as runner
+    with pytest.MonkeyPatch.context() as mp:
+        for mod in (runner, layer_runner):
+            mp.setattr(mod, "drive", lambda job, **kw: real(job, **{**kw, "progress": stop}))
+        assert main(["run", str(cfg), "--out", str(out), "--quiet"]) == 130
+    ck_file = tmp_path / "c.nc.ckpt"
+    ck = read_checkpoint(ck_file)
+    assert set(ck.fields) == names and ck.t == t_ck
+    assert all(np.all(np.isfinite(v)) for v in ck.fields.values())
+    bad = replace(ck, fields={k: v for k, v in ck.fields.items() if k != sorted(names)[0]})
+    write_checkpoint(ck_file, bad)
+    capsys.readouterr()
+    assert main(["run", str(cfg), "--out", str(out), "--resume", "--quiet"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "checkpoint" in lines[0] and "does not match" in lines[0], lines
+    with open(ck_file, "wb") as fh:       # the format before 2026-12-03
+        np.savez(fh, format=np.int64(1), t=np.float64(t_ck), u=np.zeros(3), rho=np.ones(3))
+    assert main(["run", str(cfg), "--out", str(out), "--resume", "--quiet"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "checkpoint format 1, expected 2" in lines[0], lines
+    write_checkpoint(ck_file, ck)
+    assert main(["run", str(cfg), "--out", str(out), "--resume", "--quiet"]) == 0
+    with xr.open_dataset(out) as ds:
+        assert ds.attrs["status"] == "ok"

@@ -10,8 +10,8 @@ formulation, a 2-D / 3-D layer of the seed's kernel, a 2-D / 3-D packing bed) go
   the free space) or, with ``--resume``, the checkpoint of the same config and bsrflow version,
   the output reopened with exactly the snapshots before it; ``--resume`` on a finished output
   of the same config does nothing and says so;
-* checkpoints at the job's checkpoint times (written atomically, with the steps, the wall time
-  and the snapshots so far), the progress callback, the compile step before the time loop;
+* checkpoints at the job's checkpoint times, one format for every run (its named state fields,
+  tracers, the steps, the wall time and the snapshots so far; written atomically), the progress callback, the compile step before the time loop;
 * what stops a run: a monitor (:class:`bsrflow.numerics.solver.SimulationError`: the file keeps
   every snapshot and its ``status`` is the message), Ctrl-C or SIGTERM (status "interrupted ...",
   one line on what was kept and whether ``--resume`` can continue, exit code 128 + the signal),
@@ -20,8 +20,8 @@ formulation, a 2-D / 3-D layer of the seed's kernel, a 2-D / 3-D packing bed) go
 
 What differs between discretisations is a :class:`RunJob`: the state it starts from or restores,
 its writer, its time loop (the grid solvers' ``run`` or the packing controller
-:func:`bsrflow.numerics.controller.drive_events`), and its checkpoint's content (the seed's
-(u, ρ, tracers) or the named fields of the packing discretisations, history included).  The
+:func:`bsrflow.numerics.controller.drive_events`), and its state's named fields (the seed's grid:
+``u``, ``rho``; the packing discretisations: theirs, history included).  The
 jobs are :class:`bsrflow.io.runner.ColumnJob`, :class:`bsrflow.io.runner.PackingColumnJob`,
 :class:`bsrflow.io.layer_runner.LayerJob` and :class:`bsrflow.io.layer_runner.PackingBedJob`.
 """
@@ -149,8 +149,8 @@ class RunJob(abc.ABC):
     @abc.abstractmethod
     def integrate(self, t0, save_times, checkpoint_times, observers, progress, on_checkpoint) -> None:
         """Run from ``t0`` to ``t_end``, saving to ``observers`` at ``save_times`` and calling
-        ``on_checkpoint(t, u=..., rho=..., tracers=..., fields=...)`` (the state before the jump
-        and the save at t) at ``checkpoint_times``."""
+        ``on_checkpoint(t, fields, tracers)`` (the state before the jump and the save at t, as named
+        fields) at ``checkpoint_times``."""
 
     @abc.abstractmethod
     def total_steps(self) -> int:
@@ -209,13 +209,12 @@ def drive(job: RunJob, *, resume: bool = False, progress=None, log=None) -> RunO
     last_ckpt = [t0 if resume else None]            # time of the checkpoint on disk
     clock = {"start": time.perf_counter()}
 
-    def on_checkpoint(t, *, u=None, rho=None, tracers=None, fields=None):
+    def on_checkpoint(t, fields, tracers=None):
         write_checkpoint(ckpt_file, Checkpoint(
-            t=t, u=np.zeros(0) if u is None else u, rho=np.zeros(0) if rho is None else rho,
+            t=t, fields={k: np.array(v, copy=True) for k, v in fields.items()},
             tracers=np.zeros(0) if tracers is None else tracers, steps=job.total_steps(),
             rejected_steps=job.rejected_steps(), wall_time=wall0 + time.perf_counter() - clock["start"],
-            n_snapshots=writer.n, config=job.config_text,
-            fields=None if fields is None else {k: np.array(v, copy=True) for k, v in fields.items()}))
+            n_snapshots=writer.n, config=job.config_text))
         last_ckpt[0] = t
         if progress is not None:
             progress(t)

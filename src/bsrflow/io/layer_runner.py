@@ -313,9 +313,9 @@ class LayerJob(_LayerBase):
                 "dimension": self.grid.dim, "diameter": float(self.setup.diameter)}
 
     def restore(self, ck):
-        if ck.u.shape != self.u.shape or ck.rho.shape != self.rho.shape:
-            raise ConfigError("--resume", "the checkpoint's state does not match the grid of the config")
-        self.u, self.rho, self.steps0, self.restart = ck.u, ck.rho, int(ck.steps), True
+        from .runner import _grid_fields
+        self.u, self.rho = _grid_fields(ck, self.u.shape, self.rho.shape)
+        self.steps0, self.restart = int(ck.steps), True
         self.tracers = self._restored_tracers(ck)
 
     def integrate(self, t0, save_times, checkpoint_times, observers, progress, on_checkpoint):
@@ -323,7 +323,7 @@ class LayerJob(_LayerBase):
 
         def on_event(t, u, rho, tr, steps):
             self.steps_run = steps
-            on_checkpoint(t, u=u, rho=rho, tracers=np.zeros((0, dim)) if tr is None else tr)
+            on_checkpoint(t, {"u": u, "rho": rho}, np.zeros((0, dim)) if tr is None else tr)
 
         res = self.sim.run(self.u, self.rho, self.t_end, t_start=t0, save_times=save_times, observers=observers,
                            progress=progress, extra_event_times=checkpoint_times, on_event=on_event,
@@ -354,8 +354,8 @@ class PackingBedJob(_LayerBase):
 
     def restore(self, ck):
         try:
-            self.disc.load_fields(ck.fields or {})
-        except (KeyError, ValueError) as exc:
+            self.disc.load_fields(ck.fields)
+        except ValueError as exc:
             raise ConfigError("--resume", f"the checkpoint's state does not match the config: {exc}") from None
         if self.tracers is not None:
             self.disc.set_tracers(self._restored_tracers(ck))
@@ -386,7 +386,7 @@ class PackingBedJob(_LayerBase):
 
         drive_events(t0, self.t_end, save_times, self.motion.jumps_between(t0, self.t_end), checkpoint_times,
                      advance=disc.advance, apply_jump=disc.apply_velocity_jump, save=save,
-                     on_event=lambda t: on_checkpoint(t, tracers=disc.tracer_positions(), fields=disc.fields))
+                     on_event=lambda t: on_checkpoint(t, disc.fields, disc.tracer_positions()))
 
     def total_steps(self):
         return int(self.disc.counters[0])

@@ -137,9 +137,10 @@ class ColumnJob(_ColumnBase):
         return {**super()._attrs(), "scheme": self.sim.scheme.name}
 
     def restore(self, ck):
-        if ck.u.shape != (self.grid.n_cells,) or ck.tracers.shape != (self.n_tracers,):
-            raise ConfigError("--resume", "the checkpoint's state does not match the grid of the config")
-        self.u, self.rho, self.tracers = ck.u, ck.rho, ck.tracers
+        u, rho = _grid_fields(ck, (self.grid.n_cells,), (self.grid.n_cells,))
+        if ck.tracers.shape != (self.n_tracers,):
+            raise ConfigError("--resume", "the checkpoint's tracers do not match the config")
+        self.u, self.rho, self.tracers = u, rho, ck.tracers
         self.steps0, self.rejected0, self.restart = ck.steps, ck.rejected_steps, True
 
     def compile(self, t0):
@@ -149,7 +150,7 @@ class ColumnJob(_ColumnBase):
     def integrate(self, t0, save_times, checkpoint_times, observers, progress, on_checkpoint):
         def on_event(t, u, rho, tr, steps):
             self.steps_run = steps
-            on_checkpoint(t, u=u, rho=rho, tracers=tr)
+            on_checkpoint(t, {"u": u, "rho": rho}, tr)
 
         res = self.sim.run(self.u, self.rho, self.t_end, t_start=t0, save_times=save_times, tracers=self.tracers,
                            observers=observers, progress=progress, extra_event_times=checkpoint_times,
@@ -183,8 +184,8 @@ class PackingColumnJob(_ColumnBase):
 
     def restore(self, ck):
         try:
-            self.disc.load_fields(ck.fields or {})
-        except (KeyError, ValueError) as exc:
+            self.disc.load_fields(ck.fields)
+        except ValueError as exc:
             raise ConfigError("--resume", f"the checkpoint's state does not match the config: {exc}") from None
         self.disc.counters[0] = ck.steps
         self.disc.steps = ck.steps
@@ -199,10 +200,20 @@ class PackingColumnJob(_ColumnBase):
         from ..numerics.packing import run_packing
         run_packing(self.disc, self.t_end, save_times, t_start=t0, observers=observers, progress=progress,
                     extra_event_times=checkpoint_times,
-                    on_event=lambda t, d: on_checkpoint(t, fields=d.fields))
+                    on_event=lambda t, d: on_checkpoint(t, d.fields))
 
     def total_steps(self):
         return int(self.disc.counters[0])
+
+
+def _grid_fields(ck, u_shape, rho_shape):
+    """(u, ρ) of a checkpoint of the seed's grid, refused in one line unless both are there with
+    the grid's shapes (n-D: u has the components first)."""
+    u, rho = ck.fields.get("u"), ck.fields.get("rho")
+    if u is None or rho is None or u.shape != u_shape or rho.shape != rho_shape:
+        raise ConfigError("--resume", f"the checkpoint's state ({', '.join(sorted(ck.fields)) or 'no fields'}) "
+                          "does not match the grid of the config")
+    return u, rho
 
 
 def stiffness_note(setup) -> str:
