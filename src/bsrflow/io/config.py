@@ -6,7 +6,7 @@ A configuration has four tables, every key optional (defaults below, SI units)::
                 m0 [kg], kernel_dissipation, gravity [m/s2]
     [tap]       a_over_d, frequency [Hz], start [s], n_taps, period [s], impulses
     [run]       t_end [s], save_every [s], checkpoint_every [s] (absent: about every 0.1 s;
-                0: no checkpoints)
+                0: no checkpoints), write_state (packing: the state fields in the file too)
     [numerics]  scheme ("seed" | "accurate"), points_per_diameter, and the optional
                 overrides cfl, stepper, rtol, atol [m/s, kg/m], domain_height [m]
 
@@ -175,6 +175,10 @@ FIELDS: tuple[_Field, ...] = (
            "<out>.ckpt that `bsrflow run --resume` continues from (default, when absent: every "
            f"{_AUTO_CHECKPOINT:g} s rounded up to a whole number of snapshots, at most "
            f"{_AUTO_CHECKPOINTS} per run; 0: no checkpoints; at most t_end)", "s", 0, None),
+    _Field("run", "write_state", "bool", False, "packing only: also write the discretisation's state "
+           "fields to the netCDF file at every snapshot, as state_<name> with units (eulerian: rho, momentum, "
+           "rho_delta_max on the grid; lagrangian: the material points' position, velocity and bond histories "
+           "delta_max); the same named fields as its checkpoints"),
     # [numerics]
     _Field("numerics", "scheme", "str", "seed", "scheme preset: \"seed\" (Kutta RK3 + moving "
            "average every step, CFL 0.5) or \"accurate\" (four-stage RK4 rk4_0.4_0.25, CFL 0.2, "
@@ -516,6 +520,9 @@ class Config:
         if v["model.range_over_d"] is not None:
             raise ConfigError("model.range_over_d", f"{v['model.range_over_d']!r}: an option of "
                               'model.kernel = "packing" (the seed kernel\'s range is d)', v["model.range_over_d"])
+        if v["run.write_state"]:
+            raise ConfigError("run.write_state", 'true: an option of model.kernel = "packing" (the seed '
+                              "kernel's state, u and rho on the grid, is written in every file)", True)
         if v["model.stiffness_mach"] != 0.0:
             raise ConfigError("model.stiffness_mach", f"{v['model.stiffness_mach']!r}: an option of "
                               'model.kernel = "packing"', v["model.stiffness_mach"])

@@ -19,6 +19,13 @@ mass (time)               kg                  total mass
 kinetic_energy (time)     J                   kinetic energy of the column (floor frame), sum(rho u^2/2 dx)
 ========================  ==================  ============================================
 
+With ``state`` (``bsrflow run`` of a packing column with ``run.write_state = true``) the file also
+holds the discretisation's named state fields, ``state_<name>`` (time, ...) with their units
+(:attr:`bsrflow.numerics.packing.EulerianPacking.field_schema`, ``LagrangianPacking.field_schema``:
+on the grid's ``x``, or on the material points ``point`` and the bond lags ``lag``, with those
+coordinates), the same fields as its checkpoints; the global attribute ``time_variables`` then
+lists every time-dependent variable.
+
 ``time`` is unlimited.  Global attributes: ``bsrflow_version``, ``config`` (the full TOML text),
 ``scenario`` = "tapped_column", ``scheme``, ``diameter`` [m], ``status`` ("running" while the run
 goes, then "ok" or the message of the monitor that stopped it), ``created`` (ISO 8601, UTC).
@@ -104,12 +111,16 @@ class NetCDFWriter:
     expected_snapshots : how many snapshots the run will write (sizes the chunks; see the
         module docstring).
 
+    state : optional ``(field_schema, source)``: the discretisation's named state fields, name ->
+        (dimensions, units, long_name), and a callable returning them (name -> array) at a save;
+        written as ``state_<name>`` (module docstring).
+
     Call ``writer(t, u, rho, tracers)`` at every save (t [s], u [m/s], rho [kg/m], tracers [m]
     floor frame); ``close(status)`` at the end.  The 1-D series written so far are kept in memory
     (``series(name)``), e.g. for a summary.
     """
 
-    def __init__(self, path, x, dx, n_tracers, floor, attrs=None, expected_snapshots=None):
+    def __init__(self, path, x, dx, n_tracers, floor, attrs=None, expected_snapshots=None, state=None):
         self.path = os.fspath(path)
         self.x = np.ascontiguousarray(x, dtype=float)
         self.dx = float(dx)
@@ -119,8 +130,15 @@ class NetCDFWriter:
         self.attrs.update(attrs or {})
         self.attrs["status"] = "running"
         self.expected = max(1, int(expected_snapshots or 1))
-        self._init_schema(SCHEMA, {"x": self.x.size, "tracer": self.n_tracers},
-                          {"x": self.x, "tracer": np.arange(self.n_tracers, dtype=np.int32)})
+        schema = dict(SCHEMA)
+        sizes = {"x": self.x.size, "tracer": self.n_tracers}
+        coords = {"x": self.x, "tracer": np.arange(self.n_tracers, dtype=np.int32)}
+        self.state = state
+        if state is not None:
+            _add_state_fields(state, schema, sizes, coords)
+        self._init_schema(schema, sizes, coords)
+        if state is not None:
+            self.attrs["time_variables"] = " ".join(self._time_vars)
 
     def _init_schema(self, schema, dim_sizes, coords):
         """The file's variables (name -> (dims, units, long_name)), fixed dimension sizes and
@@ -139,11 +157,12 @@ class NetCDFWriter:
 
     # -- resuming ---------------------------------------------------------------------------------
     @classmethod
-    def resume(cls, path, keep_before, x, dx, n_tracers, floor, expected_snapshots=None):
+    def resume(cls, path, keep_before, x, dx, n_tracers, floor, expected_snapshots=None, state=None):
         """Reopen a partial file, keep its snapshots with time < ``keep_before`` [s] and return a
-        writer that appends after them (x [m], dx [m], n_tracers, floor as for the constructor;
-        x and n_tracers must match the file).  The file is rewritten atomically with the kept
-        snapshots (status "running"; the other attributes, ``created`` included, are kept)."""
+        writer that appends after them (x [m], dx [m], n_tracers, floor, state as for the
+        constructor; x, n_tracers and the state fields must match the file).  The file is
+        rewritten atomically with the kept snapshots (status "running"; the other attributes,
+        ``created`` included, are kept)."""
         data, attrs = read_snapshots(path)
         x = np.ascontiguousarray(x, dtype=float)
         if data["x"].shape != x.shape or not np.array_equal(data["x"], x):
@@ -152,7 +171,16 @@ class NetCDFWriter:
         if data["tracer"].size != int(n_tracers):
             raise ValueError(f"{os.fspath(path)}: it has {data['tracer'].size} tracers, this run {n_tracers}")
         keep = data["time"] < keep_before
-        w = cls(path, x, dx, n_tracers, floor, expected_snapshots=expected_snapshots)
+        w = cls(path, x, dx, n_tracers, floor, expected_snapshots=expected_snapshots, state=state)
+        missing = [k for k in w._time_vars if k not in data]
+        extra = [k for k in data if k.startswith("state_") and k not in w._time_vars]
+        if missing or extra:
+            raise ValueError(f"{os.fspath(path)}: its variables differ from this run's "
+                             f"({'missing ' + ', '.join(missing) if missing else 'also ' + ', '.join(extra)})")
+        for k in w._time_vars:
+            if k.startswith("state_") and data[k].shape[1:] != tuple(w.dim_sizes[d] for d in w.schema[k][0][1:]):
+                raise ValueError(f"{os.fspath(path)}: its {k} has the shape {data[k].shape[1:]} per snapshot, "
+                                 "this run's differs")
         return w._keep(data, attrs, keep)
 
     def _keep(self, data, attrs, keep):
@@ -193,6 +221,9 @@ class NetCDFWriter:
             "mass": mass,
             "kinetic_energy": 0.5 * (rho * u ** 2).sum() * self.dx,
         }
+        if self.state is not None:
+            for name, value in self.state[1]().items():
+                row[f"state_{name}"] = np.array(value, dtype=float, copy=True)
         return row
 
     def _append(self, row):
@@ -328,6 +359,31 @@ class NetCDFWriter:
         self._rows = None
         self._h5 = h5py.File(self.path, "r+", locking=False)
         self._ds = {k: self._h5[k] for k in self._time_vars}
+
+
+def _add_state_fields(state, schema, sizes, coords):
+    """Add the variables ``state_<name>`` of the state fields ``state = (field_schema, source)``
+    to ``schema``, their dimensions' sizes (from the arrays ``source()`` returns) to ``sizes``,
+    and the coordinates of the dimensions ``point`` (index) and ``lag`` (1..L) to ``coords``."""
+    field_schema, source = state
+    values = source()
+    if set(values) != set(field_schema):
+        raise ValueError(f"the state fields {sorted(values)} are not those of the schema {sorted(field_schema)}")
+    for name, (dims, _, _) in field_schema.items():
+        shape = np.shape(values[name])
+        if len(shape) != len(dims):
+            raise ValueError(f"state field {name}: shape {shape} for the dimensions {dims}")
+        for d, n in zip(dims, shape):
+            if sizes.setdefault(d, n) != n:
+                raise ValueError(f"state field {name}: dimension {d} of size {n}, elsewhere {sizes[d]}")
+    labels = {"point": ("1", "material point index (from the floor, 0-based)", 0),
+              "lag": ("1", "bond lag: the number of material points between the bond's ends", 1)}
+    for d, (units, long_name, first) in labels.items():
+        if d in sizes and d not in coords:
+            schema[d] = ((d,), units, long_name)
+            coords[d] = np.arange(first, first + sizes[d], dtype=np.int32)
+    for name, (dims, units, long_name) in field_schema.items():
+        schema[f"state_{name}"] = (("time",) + tuple(dims), units, long_name)
 
 
 _AXES = {1: ("z",), 2: ("x", "z"), 3: ("x", "y", "z")}

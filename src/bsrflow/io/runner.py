@@ -107,13 +107,17 @@ class _ColumnBase(RunJob):
     def _attrs(self) -> dict:
         return {"config": self.config_text, "diameter": self.diameter}
 
+    def _state(self):
+        """(field schema, source) of the state fields the file holds too (``run.write_state``), or None."""
+        return None
+
     def new_writer(self):
         return NetCDFWriter(self.out, self.grid.x, self.grid.dx, self.n_tracers, self._floor, self._attrs(),
-                            expected_snapshots=self.save_times.size)
+                            expected_snapshots=self.save_times.size, state=self._state())
 
     def reopen_writer(self, t_checkpoint):
         return NetCDFWriter.resume(self.out, t_checkpoint, self.grid.x, self.grid.dx, self.n_tracers, self._floor,
-                                   expected_snapshots=self.save_times.size)
+                                   expected_snapshots=self.save_times.size, state=self._state())
 
 
 class ColumnJob(_ColumnBase):
@@ -181,6 +185,11 @@ class PackingColumnJob(_ColumnBase):
         d = self.disc
         return {**super()._attrs(), "scheme": f"packing_{d.name}", "kernel": "packing", "formulation": d.name,
                 "range_over_d": float(d.law.range_over_d)}
+
+    def _state(self):
+        if not self.config["run.write_state"]:
+            return None
+        return self.disc.field_schema, lambda: self.disc.fields
 
     def restore(self, ck):
         try:

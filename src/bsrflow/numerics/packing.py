@@ -129,6 +129,14 @@ class EulerianPacking(_Base):
         self.counters = np.zeros(4, dtype=np.int64)
 
     @property
+    def field_schema(self) -> dict:
+        """The named state fields: name -> (dimensions, units, long_name) (``x``: the grid's cells)."""
+        return {"rho": (("x",), "kg m-1", "line density (the finite volumes' state)"),
+                "momentum": (("x",), "kg s-1", "momentum per unit length rho u (floor frame)"),
+                "rho_delta_max": (("x",), "kg", "rho times delta_max, the largest overlap per contact "
+                                  "reached (the history, advected in conserved form)")}
+
+    @property
     def fields(self):
         n = self.grid.n_cells
         s = slice(pk.NG, pk.NG + n)
@@ -213,6 +221,20 @@ class LagrangianPacking(_Base):
             self.dt_max = self.cfl * h / law.wave_speed_bound()
         self.counters = np.zeros(3, dtype=np.int64)
         self.point_masses = (np.arange(n_pts) + 0.5) * self.mu
+
+    @property
+    def field_schema(self) -> dict:
+        """The named state fields: name -> (dimensions, units, long_name) (``point``: the material
+        points from the floor up; ``lag``: the nonlocal bonds' lag ℓ = 1..L)."""
+        if self.weights is None:
+            hist = (("point",), "m", "largest overlap per contact reached on the bond beneath each point "
+                    "(the lowest point's: to its mirror image below the floor)")
+        else:
+            hist = (("lag", "point"), "m", "largest overlap per contact reached on the bond from each point to "
+                    "the point lag below it (below the floor: its mirror image)")
+        return {"position": (("point",), "m", "material point height (floor frame)"),
+                "velocity": (("point",), "m s-1", "material point velocity relative to the floor"),
+                "delta_max": hist}
 
     @property
     def fields(self):

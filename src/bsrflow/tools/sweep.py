@@ -504,9 +504,9 @@ def _main(args) -> int:
     for opt, items in (("--param", args.param), ("--set", args.set)):
         for item in items:
             name = item.partition("=")[0].strip()
-            if name.split(".")[-1] == "checkpoint_every":
-                raise ValueError(f"{opt} {name}: sweep cases write no checkpoints (the option of `bsrflow run`); "
-                                 "leave it out")
+            if name.split(".")[-1] in ("checkpoint_every", "write_state"):
+                raise ValueError(f"{opt} {name}: sweep cases write no checkpoints and no netCDF files (an option "
+                                 "of `bsrflow run`); leave it out")
     params = parse_params(args.param)
     fixed = {}
     for item in args.set:

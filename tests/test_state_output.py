@@ -1,0 +1,106 @@
+"""Issue #18, the named state in the output: with `run.write_state = true` a packing column's netCDF
+file holds the discretisation's state fields (`state_<name>`, with units), the same fields as its
+checkpoints, and a resumed run writes them bit for bit as an uninterrupted one."""
+import numpy as np
+import pytest
+import xarray as xr
+
+from bsrflow.cli import main
+
+BASE = ('[model]\nkernel = "packing"\n[numerics]\nformulation = "{form}"\n'
+        '[run]\nt_end = 0.5\nsave_every = 0.025\ncheckpoint_every = 0.1\nwrite_state = true\n')
+
+
+def _run(tmp_path, form, name="a", argv=()):
+    cfg = tmp_path / f"{name}.toml"
+    cfg.write_text(BASE.format(form=form))
+    out = tmp_path / f"{name}.nc"
+    assert main(["run", str(cfg), "--out", str(out), "--quiet", *argv]) == 0
+    return out
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("state")
+    return {form: _run(tmp, form, form) for form in ("eulerian", "lagrangian")}
+
+
+def test_eulerian_state_fields_are_the_grid_state(files):
+    """The finite volumes' state on the grid: state_rho is the file's rho, momentum / rho its u where
+    there is material, rho_delta_max / rho the history, which the tap at 0.4 s loads (> 0) and which is
+    never more than the largest overlap a contact can reach here (1 % of d)."""
+    with xr.open_dataset(files["eulerian"]) as ds:
+        assert ds.attrs["time_variables"].split()[-3:] == ["state_rho", "state_momentum", "state_rho_delta_max"]
+        assert [ds[f"state_{k}"].attrs["units"] for k in ("rho", "momentum", "rho_delta_max")] == \
+            ["kg m-1", "kg s-1", "kg"]
+        np.testing.assert_array_equal(ds["state_rho"].values, ds["rho"].values)
+        rho, mom = ds["state_rho"].values, ds["state_momentum"].values
+        full = rho > 1e-6 * rho.max()
+        np.testing.assert_allclose(mom[full] / rho[full], ds["u"].values[full], rtol=1e-12, atol=1e-12)
+        hist = np.where(full, ds["state_rho_delta_max"].values / np.where(full, rho, 1.0), 0.0)
+        d = float(ds.attrs["diameter"])
+        assert hist.min() >= 0.0 and 0.0 < hist.max() < 0.01 * d
+
+
+def test_lagrangian_state_fields_are_the_material_points(files):
+    """The material points: their positions give the file's sphere-centre tracers (the mass coordinate
+    (k + 1/2) m interpolated between them, as the formulation does) to round-off, they stay ordered, and
+    the bond histories (lag, point) are non-negative and loaded by the tap."""
+    with xr.open_dataset(files["lagrangian"]) as ds:
+        x = ds["state_position"].values
+        assert ds["state_delta_max"].dims == ("time", "lag", "point")
+        assert list(ds["lag"].values) == list(range(1, ds.sizes["lag"] + 1))
+        assert ds["state_position"].attrs["units"] == "m" and ds["state_velocity"].attrs["units"] == "m s-1"
+        assert np.all(np.diff(x, axis=1) > 0.0)
+        n_pts, n_sph = ds.sizes["point"], ds.sizes["tracer"]
+        ppd = n_pts // n_sph
+        d = float(ds.attrs["diameter"])
+        for k in range(ds.sizes["time"]):
+            nodes = np.concatenate([[0.0], x[k], [x[k, -1] + 0.5 * d / ppd]])
+            cum = np.concatenate([[0.0], np.arange(n_pts) + 0.5, [n_pts]])          # in point masses
+            centres = np.interp((np.arange(n_sph) + 0.5) * ppd, cum, nodes)
+            tracers = ds["tracer_height"].values[k] - ds["floor"].values[k]
+            np.testing.assert_allclose(centres, tracers, rtol=0, atol=1e-12 * d)
+        hist = ds["state_delta_max"].values
+        assert hist.min() >= 0.0 and hist.max() > 0.0
+
+
+@pytest.mark.parametrize("form", ["eulerian", "lagrangian"])
+def test_state_fields_resume_bit_for_bit(tmp_path, files, form):
+    """Interrupted after a checkpoint and resumed: every variable of the file, the state fields included,
+    equals the uninterrupted run's bit for bit."""
+    import bsrflow.io.driver as driver
+    import bsrflow.io.runner as runner
+
+    real = driver.drive
+
+    def stop(t):
+        if t > 0.26:
+            raise KeyboardInterrupt()
+    cfg = tmp_path / "p.toml"
+    cfg.write_text(BASE.format(form=form))
+    out = tmp_path / "p.nc"
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(runner, "drive", lambda job, **kw: real(job, **{**kw, "progress": stop}))
+        assert main(["run", str(cfg), "--out", str(out), "--quiet"]) == 130
+    assert main(["run", str(cfg), "--out", str(out), "--resume", "--quiet"]) == 0
+    with xr.open_dataset(out) as a, xr.open_dataset(files[form]) as b:
+        assert set(a.data_vars) == set(b.data_vars)
+        for k in a.data_vars:
+            np.testing.assert_array_equal(a[k].values, b[k].values, err_msg=k)
+
+
+def test_write_state_is_refused_where_it_does_not_apply(tmp_path, capsys):
+    """The seed kernel's state is the file's u and rho: `run.write_state = true` is refused in one line
+    (exit 2); a sweep writes no files, so `--set run.write_state=true` is refused there."""
+    cfg = tmp_path / "s.toml"
+    cfg.write_text("[run]\nt_end = 0.05\nwrite_state = true\n")
+    assert main(["run", str(cfg), "--out", str(tmp_path / "s.nc")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "run.write_state" in err[0] and 'model.kernel = "packing"' in err[0], err
+    assert not (tmp_path / "s.nc").exists()
+    cfg.write_text("[run]\nt_end = 0.05\n")
+    assert main(["sweep", str(cfg), "--param", "tap.a_over_d=0.5,1.0", "--set", "run.write_state=true",
+                 "--out", str(tmp_path / "sw.nc")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "write_state" in err[0] and "no netCDF files" in err[0], err
