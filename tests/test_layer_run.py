@@ -236,3 +236,35 @@ def test_layer_output_carries_the_resolved_config(tmp_path):
         assert ds.attrs["config"] == cfg_file.read_text()
         assert "restitution = 0.9\n" in ds.attrs["config_resolved"]
         assert "stiffness = 50000.0\n" in ds.attrs["config_resolved"]
+
+
+def test_set_overrides_a_layer_config(tmp_path, capsys):
+    """`bsrflow run LAYER.toml --set KEY=VALUE` works as for a column (it was refused): layer fields
+    (dotted or bare), output keys; the file's `config` is the config as run, which a `--resume` with the
+    same overrides continues and one without them refuses naming the field; bad items are one line, exit 2."""
+    import os
+    cfg = tmp_path / "layer.toml"
+    cfg.write_text(CONFIG.replace("vtk = true", "vtk = false"))
+    out = tmp_path / "a.nc"
+    argv = ["run", str(cfg), "--out", str(out), "--quiet", "--set", "t_end=0.03", "--set", "output.checkpoint_every=0.02"]
+    assert main(argv) == 0
+    with xr.open_dataset(out) as ds:
+        assert float(ds["time"].values[-1]) == pytest.approx(0.03)
+        assert "t_end = 0.03" in ds.attrs["config"] and "checkpoint_every = 0.02" in ds.attrs["config"]
+        assert "t_end = 0.03" in ds.attrs["config_resolved"]
+    capsys.readouterr()
+    assert main([a for a in argv if a != "--quiet"] + ["--resume"]) == 0
+    assert "complete already" in capsys.readouterr().out
+    assert main(["run", str(cfg), "--out", str(out), "--resume", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "layer.t_end" in err[0], err
+    for bad, words in [(["--set", "layer.gamma=2"], "layer.gamma: unknown key"),
+                       (["--set", "layer.t_end=-1"], "layer.t_end"),
+                       (["--set", "tracers.positions=[[0.01, 0.01]]"], "--set tracers.positions"),
+                       (["--set", "t_end=0.02", "--set", "layer.t_end=0.03"], "given twice"),
+                       (["--set", "t_end"], "not KEY=VALUE"),
+                       (["--scheme", "accurate"], "--set layer.scheme")]:
+        assert main(["run", str(cfg), "--out", str(tmp_path / "b.nc"), "--quiet", *bad]) == 2, bad
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and words in err[0], (bad, err)
+    assert not os.path.exists(tmp_path / "b.nc")

@@ -138,10 +138,10 @@ def _run_layer(args) -> int:
     """`bsrflow run` of a 2-D / 3-D layer config (a [layer] table; :mod:`bsrflow.io.layer_runner`)."""
     from .layer_runner import load_layer_config, run_layer_config
 
-    if args.set or args.scheme:
-        raise ConfigError("--set" if args.set else "--scheme", "is not supported for layer configs; "
-                          "edit the [layer] table instead")
-    cfg = load_layer_config(args.config)
+    if args.scheme:
+        raise ConfigError("--scheme", "is an option of column configs; for a layer use --set layer.scheme=NAME "
+                          "(tapped_layer, vibrated_box)")
+    cfg = load_layer_config(args.config, args.set)
     out = args.out if args.out is not None else os.path.splitext(args.config)[0] + ".nc"
     if os.path.abspath(out) == os.path.abspath(args.config):
         raise ConfigError("--out", f"{out} is the config file itself; give another file name (e.g. .nc)")

@@ -108,11 +108,19 @@ def _kind_classes() -> dict:
     return {"tapped_layer": TappedLayer, "vibrated_box": VibratedBox, "packing_bed": PackingBed}
 
 
-def load_layer_config(path) -> LayerConfig:
-    """Read and check a layer config (module docstring); ConfigError on the first problem."""
+def load_layer_config(path, overrides=()) -> LayerConfig:
+    """Read and check a layer config (module docstring); ConfigError on the first problem.
+    ``overrides``: ``"KEY=VALUE"`` items (``bsrflow run --set``), KEY ``layer.<field>``,
+    ``output.<key>`` or a bare field of the scenario, VALUE a TOML value; applied before the
+    checks, and the config's text (the ``config`` attribute and the checkpoint's) is then the
+    file's with them applied."""
     with open(path, "rb") as fh:
         raw = fh.read()
     data = tomllib.loads(raw.decode("utf-8"))
+    if overrides:
+        data = _with_overrides(data, overrides)
+        raw = (f"# {os.path.basename(os.fspath(path))} with --set " + " ".join(o.strip() for o in overrides)
+               + "\n" + _dump_layer_toml(data)).encode("utf-8")
     for table in data:
         if table not in ("layer", "output", "tracers"):
             raise ConfigError(str(table), "unknown table in a layer config; valid: [layer], [output], [tracers]")
@@ -161,6 +169,55 @@ def load_layer_config(path) -> LayerConfig:
                               "(0: no checkpoints)")
     return LayerConfig(setup, vtk, None if ck is None else float(ck), raw.decode("utf-8"),
                        _tracer_positions(data.get("tracers"), setup))
+
+
+def _with_overrides(data: dict, overrides) -> dict:
+    """The config tables ``data`` with the ``--set`` items applied (:func:`load_layer_config`)."""
+    from ..tools.setup_source import check_given_once
+    data = {k: dict(v) if isinstance(v, dict) else v for k, v in data.items()}
+    layer = data.get("layer", {})
+    kind = layer.get("kind", "tapped_layer")
+    fields = {f.name for f in dataclasses.fields(_kind_classes()[kind])} if kind in KINDS else set()
+
+    def dotted(key):
+        key = key.strip()
+        if "." in key:
+            return key
+        return f"output.{key}" if key in _OUTPUT_KEYS and key not in fields else f"layer.{key}"
+
+    check_given_once((("--set", item.strip()) for item in overrides), key=dotted)
+    for item in overrides:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip() or not value.strip():
+            raise ConfigError("--set", f"{item!r} is not KEY=VALUE (e.g. layer.gamma=4)")
+        table, _, name = dotted(key).partition(".")
+        if table not in ("layer", "output") or not name or "." in name:
+            raise ConfigError(f"--set {key.strip()}", "a layer config takes layer.<field> or output.<key> "
+                              "(tracer positions: edit the [tracers] table)")
+        try:
+            parsed = tomllib.loads(f"v = {value.strip()}")["v"]
+        except tomllib.TOMLDecodeError:
+            parsed = value.strip()
+        data.setdefault(table, {})[name] = parsed
+    return data
+
+
+def _dump_layer_toml(data: dict) -> str:
+    """TOML text of the tables of a layer config (the keys in their order, values by
+    :func:`_toml_value`; tracer positions as a list of lists)."""
+    lines = []
+    for table in ("layer", "output", "tracers"):
+        if table not in data:
+            continue
+        lines.append(f"[{table}]")
+        for key, value in data[table].items():
+            if isinstance(value, (list, tuple)):
+                text = "[" + ", ".join("[" + ", ".join(_toml_value(v) for v in row) + "]" if isinstance(row, (list, tuple))
+                                       else _toml_value(row) for row in value) + "]"
+            else:
+                text = _toml_value(value)
+            lines.append(f"{key} = {text}")
+    return "\n".join(lines) + "\n"
 
 
 MAX_LAYER_CELLS = 1e7
