@@ -153,3 +153,50 @@ def test_every_checkpoint_holds_named_fields_and_resumes(tmp_path, capsys, kind,
     assert main(["run", str(cfg), "--out", str(out), "--resume", "--quiet"]) == 0
     with xr.open_dataset(out) as ds:
         assert ds.attrs["status"] == "ok"
+
+
+def test_a_monitor_stop_records_the_steps_to_the_stop(tmp_path, capsys):
+    """A layer stopped by its monitor (a far too strong tap without dissipation: the step collapses) has
+    the monitor's message as its status and, as `steps`, the steps of the message (it had the count at
+    the last checkpoint); a seed column stopped so has its steps too."""
+    import re
+    cfg = tmp_path / "l.toml"
+    cfg.write_text('[layer]\nkind = "tapped_layer"\ndim = 2\namplitude = 0.05\nfrequency = 50.0\ndissipation = 0.0\n'
+                   'positivity = false\nsettle_time = 0.012\nt_end = 0.05\nsave_every = 0.005\n'
+                   '[output]\ncheckpoint_every = 0.005\n')
+    assert main(["run", str(cfg), "--out", str(tmp_path / "l.nc"), "--quiet"]) == 3
+    with xr.open_dataset(tmp_path / "l.nc") as ds:
+        status = ds.attrs["status"]
+        said = int(re.search(r"(\d+) steps", status).group(1))
+        assert int(ds.attrs["steps"]) == said > 0, status
+
+
+@pytest.mark.parametrize("kind", ["layer", "bed"])
+def test_a_layer_default_written_out_is_no_difference(tmp_path, capsys, kind):
+    """Layer configs are compared resolved, as column configs are: a field written out at its default
+    resumes; a column config's output is refused as another kind of run."""
+    text, _, t_ck, _ = KINDS[kind]
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(text)
+    out = tmp_path / "c.nc"
+    import bsrflow.io.layer_runner as layer_runner
+    from bsrflow.io.layer_runner import load_layer_config
+
+    def stop(t):
+        if t > 1.5 * t_ck:
+            raise KeyboardInterrupt()
+    with pytest.raises(KeyboardInterrupt):
+        layer_runner.run_layer_config(load_layer_config(cfg), out, progress=stop)
+    default = dataclasses_default(load_layer_config(cfg).setup, "gravity")
+    cfg.write_text(text.replace("[output]", f"gravity = {default!r}\n[output]"))
+    assert main(["run", str(cfg), "--out", str(out), "--resume", "--quiet"]) == 0
+    col = tmp_path / "col.toml"
+    col.write_text(SEED)
+    assert main(["run", str(col), "--out", str(out), "--resume", "--quiet"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "not a config of this kind of run" in lines[0], lines
+
+
+def dataclasses_default(setup, name):
+    import dataclasses
+    return next(f.default for f in dataclasses.fields(setup) if f.name == name)

@@ -17,6 +17,7 @@ from bsrflow.analysis.compare_packing import PACKING_CASES, compare_packing
 from bsrflow.cli import main
 from bsrflow.io.config import Config, ConfigError
 from bsrflow.io.runner import run_config
+from bsrflow.numerics.solver import SimulationError
 from bsrflow.physics.column import (STIFFNESS_ERROR_BOUNDS, ColumnSetup, impact_mach, run_bsr_column,
                                     stiffness_model, suggest_stiffness_factor)
 
@@ -153,6 +154,29 @@ def test_config_fields_and_refusals():
         assert str(exc.value).startswith(field), (over, str(exc.value))
 
 
+def test_compare_on_worker_processes_gives_the_same_numbers(tmp_path):
+    """`compare_packing(workers=2)` (`bsrflow compare --kernel packing --workers 2`) runs the continuum's
+    cases on two processes: the same entries in the same order, equal but for the wall times; a run a
+    monitor stops there is reported as in the serial loop, with the finished cases kept."""
+    cases = [dict(name="small", diameter=0.022, a_over_d=0.75, n_taps=1),
+             dict(name="small_b", diameter=0.022, a_over_d=1.0, n_taps=1)]
+    base = ColumnSetup(n_spheres=6, points_per_diameter=4, tap_start=0.05)
+    models = (("lagrangian", 1.0), ("lagrangian", 0.0))
+
+    def no_walls(x):
+        if isinstance(x, dict):
+            return {k: no_walls(v) for k, v in x.items() if k not in ("wall_s", "wall_time_s")}
+        return [no_walls(v) for v in x] if isinstance(x, list) else x
+    serial = compare_packing(base, cases=cases, models=models, log=None)
+    parallel = compare_packing(base, cases=cases, models=models, log=None, workers=2)
+    assert no_walls(parallel) == no_walls(serial)
+    soft = base.with_(kernel_name="packing", stiffness_factor=1e-9)   # points cross: the monitor stops the run
+    for workers in (1, 2):
+        with pytest.raises(SimulationError, match="case small, lagrangian R=1d: material points crossed") as info:
+            compare_packing(soft, cases=cases, models=models, log=None, workers=workers)
+        assert info.value.partial["cases"] == []
+
+
 def test_cli_unknown_kernel_and_formulation_exit_2(tmp_path, capsys):
     cfg = tmp_path / "col.toml"
     assert main(["init", str(cfg)]) == 0
@@ -178,6 +202,10 @@ def test_cli_unknown_kernel_and_formulation_exit_2(tmp_path, capsys):
     assert main(["compare", "--formulation", "eulerian"]) == 2       # a packing-only option
     assert main(["compare", "--kernel", "packing", "--stiffness-factor", "2"]) == 2
     assert "--stiffness-factor" in capsys.readouterr().err
+    assert main(["compare", "--kernel", "packing", "--workers", "0"]) == 2
+    assert "--workers 0 is outside the valid range [1, " in capsys.readouterr().err
+    assert main(["compare", "--workers", "2"]) == 2                   # a packing-only option
+    assert "--workers is an option of --kernel packing only" in capsys.readouterr().err
     assert not (tmp_path / "x.nc").exists()
 
 

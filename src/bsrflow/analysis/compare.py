@@ -229,6 +229,9 @@ def add_parser(sub):
                            "(bsrflow.physics.column.suggest_stiffness_factor; documented cost: top maximum "
                            "within 1 %%, mass-centre RMS within 0.15 d of the true stiffness's (lagrangian, "
                            "R = d), 1.5 %%, 0.25 d (lagrangian, local), 1 %%, 1.2 d (eulerian))")
+            p.add_argument("--workers", type=int, default=None, metavar="N",
+                           help="packing only: run the continuum's cases on N processes (default 1; at most 4 per "
+                           "CPU); the same numbers, the wall times then those of a shared machine")
         p.add_argument("--diameter", type=float, default=None, help="sphere diameter d [m] (default 0.022)")
         p.add_argument("--ppd", type=int, default=None, help="grid points per diameter (default 10)")
         p.set_defaults(func=_main)
@@ -269,6 +272,11 @@ def _packing_main(args) -> int:
                              "(or 'auto')")
     if args.diameter is not None:
         raise ValueError("--diameter is not an option of --kernel packing (its cases set d = 5, 10, 22 mm)")
+    workers = 1 if args.workers is None else args.workers
+    max_workers = 4 * (os.cpu_count() or 1)
+    if not 1 <= workers <= max_workers:
+        raise ValueError(f"--workers {workers} is outside the valid range [1, {max_workers}] (4 per CPU of this "
+                         "machine)")
     if args.scheme != "seed":
         raise ValueError("--scheme is an option of the seed kernel only (valid with --kernel packing: none)")
     base = _setup_from_options(kernel_name="packing", **kw)
@@ -285,7 +293,8 @@ def _packing_main(args) -> int:
           f"{base.points_per_diameter} points per diameter, stiffness factor "
           f"{'auto (impact Mach number 0.01)' if auto else format(base.stiffness_factor, 'g')}")
     try:
-        result = compare_packing(base, cases=cases, models=models, figures=args.figures, auto_stiffness=auto)
+        result = compare_packing(base, cases=cases, models=models, figures=args.figures, auto_stiffness=auto,
+                                 workers=workers)
     except SimulationError as exc:
         if args.json is not None and getattr(exc, "partial", None) is not None:
             with open(args.json, "w") as fh:             # the cases finished before the stop are kept
@@ -319,7 +328,7 @@ def _main(args) -> int:
         raise ValueError(f"--kernel = {args.kernel!r} is not one of seed, packing")
     if getattr(args, "kernel", "seed") == "packing":
         return _packing_main(args)
-    for opt in ("formulation", "models", "cases", "stiffness_factor"):
+    for opt in ("formulation", "models", "cases", "stiffness_factor", "workers"):
         if getattr(args, opt, None) is not None:
             raise ValueError(f"--{opt.replace('_', '-')} is an option of --kernel packing only")
     kw = {}

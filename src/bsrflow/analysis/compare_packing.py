@@ -157,17 +157,93 @@ def _run_against_dem(name, s, dem, dem_m, dem_wall):
     return run, entry
 
 
+def _ignore_sigint():
+    """Initializer of the worker processes: Ctrl-C is the parent's to handle (it stops them)."""
+    import signal
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _run_task(name, setup, dem, dem_m, dem_wall):
+    """One (case, model) run in a worker process: ("ok", run, entry) or, when a monitor stops it,
+    ("stopped", message, time, position) (a SimulationError does not survive pickling)."""
+    try:
+        return ("ok",) + _run_against_dem(name, setup, dem, dem_m, dem_wall)
+    except SimulationError as exc:
+        return ("stopped", str(exc), exc.time, exc.position)
+
+
+def _log_entry(log, c, entry, dem_m, dem_wall):
+    if log:
+        log(f"  {c['name']:22s} {entry['model']:16s}: top {entry['bsr']['top_max_over_d']:.2f} d at "
+            f"{entry['bsr']['t_top_max']:.3f} s | DEM {dem_m['top_max_over_d']:.2f} d at "
+            f"{dem_m['t_top_max']:.3f} s | dtop {100 * entry['top_max_rel_diff']:+.1f}% rise "
+            f"{100 * entry['rise_rel_diff']:+.1f}% | mc RMS {entry['mass_centre_rms_over_d']:.3f} d | "
+            f"{entry['bsr']['wall_s']:.1f} s, DEM {dem_wall:.1f} s")
+
+
+def _stopped(c, form, rng, message, models, out_cases):
+    """The SimulationError of a run a monitor stopped: which case and model, and the finished
+    cases (``partial``) for the caller to keep."""
+    exc = SimulationError(f"case {c['name']}, {model_label(form, rng)}: {message}", None, None, None, "stopped")
+    exc.partial = {"fitted_constants": {}, "models": [model_label(*mdl) for mdl in models],
+                   "cases": out_cases, "stopped": exc.args[0]}
+    return exc
+
+
+def _compare_in_workers(cases, base, models, auto_stiffness, workers, log, out_cases, fig_runs):
+    """The runs of :func:`compare_packing` on ``workers`` processes (the DEM runs here, each case's
+    models there); the same entries in the same order as the serial loop."""
+    import multiprocessing
+
+    from ..physics.column import suggest_stiffness_factor
+    from .compare import run_dem_column
+    prepared = []
+    for c in cases:
+        s0 = case_setup(c, base)
+        w = time.perf_counter()
+        dem = run_dem_column(s0.with_(stiffness_factor=1.0))
+        if auto_stiffness:
+            s0 = s0.with_(stiffness_factor=suggest_stiffness_factor(s0))
+        dem_wall = time.perf_counter() - w
+        prepared.append((c, s0, dem, _metrics(dem[0], dem[1][:, -1], dem[1].mean(axis=1), s0), dem_wall))
+    pool = multiprocessing.get_context("spawn").Pool(workers, initializer=_ignore_sigint)
+    try:
+        pending = [[pool.apply_async(_run_task, (c["name"], s0.with_(formulation=form, range_over_d=rng), dem,
+                                                  dem_m, dem_wall)) for form, rng in models]
+                   for c, s0, dem, dem_m, dem_wall in prepared]
+        for (c, s0, dem, dem_m, dem_wall), futures in zip(prepared, pending):
+            runs = {}
+            for (form, rng), fut in zip(models, futures):
+                got = fut.get()
+                if got[0] == "stopped":
+                    raise _stopped(c, form, rng, got[1], models, out_cases)
+                _, run, entry = got
+                runs[entry["model"]] = run
+                out_cases.append(entry)
+                _log_entry(log, c, entry, dem_m, dem_wall)
+            fig_runs[c["name"]] = (s0, runs, dem)
+        pool.close()
+    finally:
+        pool.terminate()                    # a stop or Ctrl-C ends the runs still going
+        pool.join()
+
+
 def compare_packing(base: ColumnSetup | None = None, cases=None, models=PACKING_MODELS, figures=None, log=print,
-                    auto_stiffness=False):
+                    auto_stiffness=False, workers=1):
     """Run the comparison; returns the JSON-ready dict (module docstring).  ``models``: the
     (formulation, R/d) pairs to run (:data:`PACKING_MODELS`).  ``auto_stiffness``: each case at the
-    reduced stiffness of impact Mach number 0.01 (``suggest_stiffness_factor``)."""
+    reduced stiffness of impact Mach number 0.01 (``suggest_stiffness_factor``).  ``workers`` > 1:
+    the continuum runs on that many processes (the same numbers, each run being serial and
+    deterministic; the wall times then those of a shared machine)."""
     from ..physics.column import suggest_stiffness_factor
     from .compare import run_dem_column
     base = base or ColumnSetup()
     cases = PACKING_CASES if cases is None else cases
     t0 = time.perf_counter()
     out_cases, fig_runs = [], {}
+    if workers > 1:
+        _compare_in_workers(cases, base, models, auto_stiffness, workers, log, out_cases, fig_runs)
+        cases = ()
     for c in cases:
         s0 = case_setup(c, base)
         w = time.perf_counter()
@@ -188,12 +264,7 @@ def compare_packing(base: ColumnSetup | None = None, cases=None, models=PACKING_
                 raise
             runs[entry["model"]] = run
             out_cases.append(entry)
-            if log:
-                log(f"  {c['name']:22s} {entry['model']:16s}: top {entry['bsr']['top_max_over_d']:.2f} d at "
-                    f"{entry['bsr']['t_top_max']:.3f} s | DEM {dem_m['top_max_over_d']:.2f} d at "
-                    f"{dem_m['t_top_max']:.3f} s | dtop {100 * entry['top_max_rel_diff']:+.1f}% rise "
-                    f"{100 * entry['rise_rel_diff']:+.1f}% | mc RMS {entry['mass_centre_rms_over_d']:.3f} d | "
-                    f"{entry['bsr']['wall_s']:.1f} s, DEM {dem_wall:.1f} s")
+            _log_entry(log, c, entry, dem_m, dem_wall)
         fig_runs[c["name"]] = (s0, runs, dem)
     result = {"d": base.diameter, "scheme": "packing", "kernel": "packing", "calibration": None,
               "fitted_constants": {}, "models": [model_label(*mdl) for mdl in models], "cases": out_cases,

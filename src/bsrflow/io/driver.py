@@ -43,7 +43,11 @@ from .config import ConfigError
 from .netcdf import finished_snapshots
 from .paths import OutputPathError, check_output_file
 
-__all__ = ["RunJob", "RunOutcome", "drive", "output_attrs", "write_failed", "check_checkpoint_version"]
+__all__ = ["RunJob", "RunOutcome", "drive", "output_attrs", "write_failed", "check_checkpoint_version",
+           "OTHER_KIND"]
+
+OTHER_KIND = "everything: it is not a config of this kind of run (or cannot be read)"
+"""What :meth:`RunJob.config_difference` says of a text that is not a config of the job's kind."""
 
 
 @dataclass
@@ -110,6 +114,7 @@ class RunJob(abc.ABC):
     name: str
     diameter: float | None = None
     adaptive: bool = False
+    compile_note: str = ""
 
     def check_paths(self) -> None:
         """Further output paths (e.g. a VTK folder), checked before any work."""
@@ -120,7 +125,8 @@ class RunJob(abc.ABC):
     @abc.abstractmethod
     def config_difference(self, text: str, where: str) -> str:
         """'' when the config ``text`` (of a checkpoint or an output) is this run's, else the first
-        difference in words, e.g. "run.t_end (0.5 in the checkpoint, 0.6 now)"."""
+        difference in words, e.g. "run.t_end (0.5 in the checkpoint, 0.6 now)", or
+        :data:`OTHER_KIND` when ``text`` is not a config of this kind of run."""
 
     @abc.abstractmethod
     def new_writer(self):
@@ -160,9 +166,14 @@ class RunJob(abc.ABC):
         """Rejected adaptive steps from t = 0."""
         return 0
 
-    def stop_attrs(self) -> dict:
-        """Attributes written with the status of a run a monitor stopped."""
-        return {"steps": np.int64(self.total_steps()), "rejected_steps": np.int64(self.rejected_steps())}
+    def stop_attrs(self, exc: SimulationError) -> dict:
+        """Attributes written with the status of a run the monitor ``exc`` stopped: the steps from
+        t = 0 to the stop (a grid solver's stop carries its segment's result in ``exc.result``)."""
+        result = getattr(exc, "result", None)
+        steps = self.total_steps()
+        if result is not None and hasattr(result, "steps") and hasattr(self, "steps0"):
+            steps = self.steps0 + int(result.steps)
+        return {"steps": np.int64(steps), "rejected_steps": np.int64(self.rejected_steps())}
 
     def vtk_collection(self) -> str | None:
         """The ``.pvd`` file of the VTK output, or None."""
@@ -221,7 +232,7 @@ def drive(job: RunJob, *, resume: bool = False, progress=None, log=None) -> RunO
 
     with _closing_on_failure(job, writer, lambda exc: _interrupted(exc, job, writer, resume, last_ckpt[0], t0)):
         observers = job.observers(writer, t0 if resume else None)
-        log(f"compiling the {job.name} (once per process)")
+        log(f"compiling the {job.name} (once per process{job.compile_note})")
         compile_start = time.perf_counter()
         job.compile(t0)
         clock["start"] = time.perf_counter()
@@ -273,7 +284,8 @@ def _read_matching_checkpoint(job: RunJob, ckpt_file) -> Checkpoint:
     try:
         ck = read_checkpoint(ckpt_file)
     except ValueError as exc:
-        raise ConfigError("--resume", f"cannot read the checkpoint: {exc}") from None
+        raise ConfigError("--resume", f"cannot read the checkpoint: {exc}; run without --resume to start "
+                          "over") from None
     diff = job.config_difference(ck.config, "the checkpoint")
     if diff:
         raise ConfigError("--resume", f"the config differs from the checkpoint's in {diff}; resume with "
@@ -335,7 +347,7 @@ def _closing_on_failure(job: RunJob, writer, interrupted):
     try:
         yield
     except SimulationError as exc:
-        writer.close(str(exc), **job.stop_attrs())
+        writer.close(str(exc), **job.stop_attrs(exc))
         raise
     except KeyboardInterrupt as exc:
         interrupted(exc)

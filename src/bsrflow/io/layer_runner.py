@@ -42,7 +42,7 @@ import numpy as np
 
 from .checkpoint import Checkpoint, checkpoint_path
 from .config import ConfigError
-from .driver import RunJob, RunOutcome, drive
+from .driver import OTHER_KIND, RunJob, RunOutcome, drive
 
 __all__ = ["is_layer_config", "load_layer_config", "run_layer_config", "LayerOutcome"]
 
@@ -116,16 +116,25 @@ def load_layer_config(path, overrides=()) -> LayerConfig:
     file's with them applied."""
     with open(path, "rb") as fh:
         raw = fh.read()
-    data = tomllib.loads(raw.decode("utf-8"))
+    return _layer_config_from_text(raw.decode("utf-8"), overrides, os.path.basename(os.fspath(path)))
+
+
+def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -> LayerConfig:
+    """The checked layer config of a TOML ``text`` (a file's, a checkpoint's or an output's) with
+    the ``--set`` ``overrides`` applied (:func:`load_layer_config`)."""
+    raw = text.encode("utf-8")
+    data = tomllib.loads(text)
     if overrides:
         data = _with_overrides(data, overrides)
-        raw = (f"# {os.path.basename(os.fspath(path))} with --set " + " ".join(o.strip() for o in overrides)
+        raw = (f"# {name} with --set " + " ".join(o.strip() for o in overrides)
                + "\n" + _dump_layer_toml(data)).encode("utf-8")
     for table in data:
         if table not in ("layer", "output", "tracers"):
             raise ConfigError(str(table), "unknown table in a layer config; valid: [layer], [output], [tracers]")
         if not isinstance(data[table], dict):
             raise ConfigError(str(table), f"{data[table]!r} must be a table ([{table}] with its keys)")
+    if "layer" not in data:
+        raise ConfigError("layer", "no [layer] table: not a layer config")
     layer = dict(data["layer"])
     kind = layer.pop("kind", "tapped_layer")
     if kind not in KINDS:
@@ -316,7 +325,13 @@ class _LayerBase(RunJob):
         self.save_times, self.checkpoint_times, _, self.vtk_stem = _run_files(self.cfg, self.out)
 
     def config_difference(self, text, where):
-        return _toml_difference(self.config_text, text, where)
+        """Key by key on the resolved configs (every field with its default; comments, layout and a
+        default written out are no difference), as a column's config is compared."""
+        try:
+            then = _layer_config_from_text(text)
+        except (ConfigError, ValueError, tomllib.TOMLDecodeError):
+            return OTHER_KIND
+        return _toml_difference(self.cfg.resolved_text(), then.resolved_text(), where)
 
     def _floor(self, t):
         return self.motion.state(t)[0]
@@ -349,7 +364,7 @@ class LayerJob(_LayerBase):
     """A 2-D / 3-D layer of the seed's kernel (``tapped_layer``, ``vibrated_box``):
     :class:`bsrflow.numerics.solver_nd.SimulationND`, checkpoints of (u, ρ, tracers)."""
 
-    name = "n-D solver (at its first step)"
+    name = "n-D solver"
 
     def prepare(self):
         from ..numerics.solver import Scheme
@@ -374,6 +389,12 @@ class LayerJob(_LayerBase):
         self.u, self.rho = _grid_fields(ck, self.u.shape, self.rho.shape)
         self.steps0, self.restart = int(ck.steps), True
         self.tracers = self._restored_tracers(ck)
+
+    def compile(self, t0):
+        from ..numerics.solver_nd import to_internal
+        ui, ri = to_internal(self.grid, np.array(self.u, float), np.array(self.rho, float))
+        tracers = None if self.tracers is None else np.zeros((len(self.tracers), 3))
+        self.sim.advance_internal(ui, ri, t0, t0, tracers=tracers)        # no step: compiles the loop
 
     def integrate(self, t0, save_times, checkpoint_times, observers, progress, on_checkpoint):
         dim = self.grid.dim
@@ -451,11 +472,9 @@ class PackingBedJob(_LayerBase):
 
 def _toml_difference(now: str, text: str, where: str) -> str:
     """'' when the TOML ``text`` (of a checkpoint or an output) is the config ``now`` (comments and
-    layout aside), else its first differing key in words."""
-    try:
-        a, b = tomllib.loads(now), tomllib.loads(text)
-    except tomllib.TOMLDecodeError:
-        return "its config, which cannot be read"
+    layout aside; both resolved, :meth:`LayerConfig.resolved_text`), else its first differing key
+    in words."""
+    a, b = tomllib.loads(now), tomllib.loads(text)
 
     def flat(d, prefix=""):
         items = {}

@@ -30,7 +30,7 @@ import numpy as np
 
 from ..physics.column import initial_density
 from .config import Config, ConfigError, saved_config
-from .driver import RunJob, RunOutcome, check_checkpoint_version, drive, output_attrs, write_failed
+from .driver import OTHER_KIND, RunJob, RunOutcome, check_checkpoint_version, drive, output_attrs, write_failed
 from .netcdf import NetCDFWriter
 
 __all__ = ["run_config", "RunOutcome", "column_simulation", "ColumnJob", "PackingColumnJob",
@@ -99,7 +99,7 @@ class _ColumnBase(RunJob):
         try:
             return _config_difference(self.config, saved_config(text), where)
         except (ValueError, tomllib.TOMLDecodeError):
-            return "its config, which cannot be read"
+            return OTHER_KIND
 
     def _floor(self, t):
         return self.motion.state(t)[0]
@@ -125,6 +125,7 @@ class ColumnJob(_ColumnBase):
     checkpoints of (u, ρ, tracers) and the step counters, adaptive steps' rejections counted."""
 
     name = "solver"
+    compile_note = "; about 10 s"
 
     def prepare(self):
         _, self.grid, model, self.sim = column_simulation(self.config)
@@ -167,8 +168,6 @@ class ColumnJob(_ColumnBase):
     def rejected_steps(self):
         return self.rejected0 + int(self.sim.counters[0]) - self.rejected_start
 
-    def stop_attrs(self):
-        return {"rejected_steps": np.int64(self.rejected_steps())}
 
 
 class PackingColumnJob(_ColumnBase):
