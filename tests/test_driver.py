@@ -169,6 +169,7 @@ def test_a_monitor_stop_records_the_steps_to_the_stop(tmp_path, capsys):
         status = ds.attrs["status"]
         said = int(re.search(r"(\d+) steps", status).group(1))
         assert int(ds.attrs["steps"]) == said > 0, status
+        assert "None" not in status                     # no "near x = None m" where no cell is to blame
 
 
 @pytest.mark.parametrize("kind", ["layer", "bed"])

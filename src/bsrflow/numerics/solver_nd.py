@@ -485,7 +485,10 @@ class SimulationND:
                 break
             if status != 0:
                 pos = self._position(where)
-                msg = (f"simulation stopped at t = {t_new:.6g} s near x = {pos} m: {STATUS[status]}; "
+                axes = ("x", "y", "z") if g.dim == 3 else ("x", "z")
+                near = ("" if pos is None else
+                        f" near ({', '.join(axes)}) = ({', '.join(f'{p:.4g}' for p in pos)}) m")
+                msg = (f"simulation stopped at t = {t_new:.6g} s{near}: {STATUS[status]}; "
                        f"last dt = {dt_last:.3g} s, {total} steps; {len(ts)} snapshot(s) up to t = "
                        f"{(ts[-1] if ts else t_start):.6g} s were kept")
                 raise SimulationError(msg, result(STATUS[status]), t_new, pos, status)
