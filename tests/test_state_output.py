@@ -104,3 +104,44 @@ def test_write_state_is_refused_where_it_does_not_apply(tmp_path, capsys):
                  "--out", str(tmp_path / "sw.nc")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "write_state" in err[0] and "no netCDF files" in err[0], err
+
+
+def test_a_packing_bed_writes_its_state_fields_and_resumes_them(tmp_path, capsys):
+    """`[output] state = true` on a packing bed: the n-D file holds the conserved fields on the grid's
+    axes with units per metre of depth in 2-D (state_rho is the file's rho; momentum / rho its velocity);
+    an interrupted and resumed run writes them bit for bit; refused for a seed kernel's layer."""
+    import bsrflow.io.driver as driver
+    import bsrflow.io.layer_runner as layer_runner
+    text = ('[layer]\nkind = "packing_bed"\ndim = 2\nbox_width = 0.01\nbed_height = 0.01\nt_end = 0.006\n'
+            'save_every = 0.001\n[output]\ncheckpoint_every = 0.002\nstate = true\n')
+    cfg = tmp_path / "b.toml"
+    cfg.write_text(text)
+    assert main(["run", str(cfg), "--out", str(tmp_path / "full.nc"), "--quiet"]) == 0
+    real = driver.drive
+
+    def stop(t):
+        if t > 0.0035:
+            raise KeyboardInterrupt()
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(layer_runner, "drive", lambda job, **kw: real(job, **{**kw, "progress": stop}))
+        assert main(["run", str(cfg), "--out", str(tmp_path / "part.nc"), "--quiet"]) == 130
+    assert main(["run", str(cfg), "--out", str(tmp_path / "part.nc"), "--resume", "--quiet"]) == 0
+    with xr.open_dataset(tmp_path / "full.nc") as a, xr.open_dataset(tmp_path / "part.nc") as b:
+        assert {"state_rho", "state_momentum_x", "state_momentum_z", "state_rho_delta_max"} <= set(a.data_vars)
+        assert a["state_rho"].dims == ("time", "x", "z") and a["state_rho"].attrs["units"] == "kg m-3"
+        assert a["state_momentum_z"].attrs["units"] == "kg m-2 s-1"
+        assert a["state_rho_delta_max"].attrs["units"] == "kg m-2"
+        np.testing.assert_array_equal(a["state_rho"].values, a["rho"].values)
+        rho = a["rho"].values
+        full = rho > 1e-6 * rho.max()
+        np.testing.assert_allclose(a["state_momentum_z"].values[full] / rho[full], a["u_z"].values[full],
+                                   rtol=1e-12, atol=1e-12)
+        assert float(a["state_rho_delta_max"].max()) > 0.0            # the settled bed is compressed
+        for k in a.data_vars:
+            np.testing.assert_array_equal(a[k].values, b[k].values, err_msg=k)
+    capsys.readouterr()
+    seed = tmp_path / "s.toml"
+    seed.write_text('[layer]\nkind = "tapped_layer"\ndim = 2\nt_end = 0.01\n[output]\nstate = true\n')
+    assert main(["run", str(seed), "--out", str(tmp_path / "s.nc"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "output.state" in err[0] and "packing_bed" in err[0], err

@@ -10,6 +10,7 @@ netCDF file (:class:`bsrflow.io.netcdf.NetCDFWriterND`), optionally VTK files fo
     [output]
     vtk = true                   # <out stem>_vtk/layer_*.vtu and layer.pvd
     checkpoint_every = 0.05      # [s], on snapshot times; 0: none; default about every 0.1 s
+    state = true                 # packing_bed only: its state fields too (state_<name>, with units)
     [tracers]
     positions = [[0.01, 0.005], [0.01, 0.015]]   # initial positions [m] (floor frame, x (y) z)
 
@@ -47,7 +48,7 @@ from .driver import OTHER_KIND, RunJob, RunOutcome, drive
 __all__ = ["is_layer_config", "load_layer_config", "run_layer_config", "LayerOutcome"]
 
 KINDS = ("tapped_layer", "vibrated_box", "packing_bed")
-_OUTPUT_KEYS = {"vtk": bool, "checkpoint_every": float}
+_OUTPUT_KEYS = {"vtk": bool, "checkpoint_every": float, "state": bool}
 
 
 def is_layer_config(path) -> bool:
@@ -66,6 +67,7 @@ class LayerConfig:
     checkpoint_every: float | None
     text: str
     tracers: np.ndarray | None = None
+    state: bool = False
 
     def resolved_text(self) -> str:
         """The config with every field of the scenario, the defaults included, as TOML (the
@@ -80,7 +82,7 @@ class LayerConfig:
                 lines.append(f"# {f.name}: not given (derived by the scenario)")
             else:
                 lines.append(f"{f.name} = {_toml_value(value)}")
-        lines += ["[output]", f"vtk = {_toml_value(self.vtk)}"]
+        lines += ["[output]", f"vtk = {_toml_value(self.vtk)}", f"state = {_toml_value(self.state)}"]
         if self.checkpoint_every is None:
             lines.append("# checkpoint_every: not given (about every 0.1 s on snapshot times)")
         else:
@@ -167,6 +169,12 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
     vtk = out.get("vtk", False)
     if not isinstance(vtk, bool):
         raise ConfigError("output.vtk", f"{vtk!r} must be true or false")
+    state = out.get("state", False)
+    if not isinstance(state, bool):
+        raise ConfigError("output.state", f"{state!r} must be true or false")
+    if state and kind != "packing_bed":
+        raise ConfigError("output.state", f"true: an option of kind = \"packing_bed\" (the state of {kind!r}, "
+                          "rho and u on the grid, is written in every file)")
     t_end = float(setup.t_end)
     if float(setup.save_every) > t_end:
         raise ConfigError("layer.save_every", f"{setup.save_every!r} is outside the valid range (0, t_end = {t_end:g}] s")
@@ -177,7 +185,7 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
             raise ConfigError("output.checkpoint_every", f"{ck!r} is outside the valid range [0, t_end = {t_end:g}] s "
                               "(0: no checkpoints)")
     return LayerConfig(setup, vtk, None if ck is None else float(ck), raw.decode("utf-8"),
-                       _tracer_positions(data.get("tracers"), setup))
+                       _tracer_positions(data.get("tracers"), setup), state)
 
 
 def _with_overrides(data: dict, overrides) -> dict:
@@ -336,16 +344,20 @@ class _LayerBase(RunJob):
     def _floor(self, t):
         return self.motion.state(t)[0]
 
+    def _state(self):
+        """(field schema, source) of the state fields the file holds too (``[output] state``), or None."""
+        return None
+
     def new_writer(self):
         from .netcdf import NetCDFWriterND
         return NetCDFWriterND(self.out, self.grid, self._floor, self._attrs(), expected_snapshots=self.save_times.size,
-                              n_tracers=self.n_tracers, per_depth=self.per_depth)
+                              n_tracers=self.n_tracers, per_depth=self.per_depth, state=self._state())
 
     def reopen_writer(self, t_checkpoint):
         from .netcdf import NetCDFWriterND
         return NetCDFWriterND.resume(self.out, t_checkpoint, self.grid, self._floor,
                                      expected_snapshots=self.save_times.size, n_tracers=self.n_tracers,
-                                     per_depth=self.per_depth)
+                                     per_depth=self.per_depth, state=self._state())
 
     def _restored_tracers(self, ck):
         if self.tracers is None:
@@ -429,6 +441,11 @@ class PackingBedJob(_LayerBase):
         return {"config": self.cfg.text, "config_resolved": self.cfg.resolved_text(),
                 "scheme": f"packing_{self.disc.name}", "kernel": "packing", "dimension": self.grid.dim,
                 "scenario": f"packing_bed_{self.grid.dim}d", "diameter": float(self.setup.diameter)}
+
+    def _state(self):
+        if not self.cfg.state:
+            return None
+        return self.disc.field_schema(per_depth=True), lambda: self.disc.fields
 
     def restore(self, ck):
         try:

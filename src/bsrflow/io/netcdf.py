@@ -19,7 +19,8 @@ mass (time)               kg                  total mass
 kinetic_energy (time)     J                   kinetic energy of the column (floor frame), sum(rho u^2/2 dx)
 ========================  ==================  ============================================
 
-With ``state`` (``bsrflow run`` of a packing column with ``run.write_state = true``) the file also
+With ``state`` (``bsrflow run`` of a packing column with ``run.write_state = true``, of a packing
+bed with ``[output] state = true``: :class:`NetCDFWriterND`, on the grid's axes) the file also
 holds the discretisation's named state fields, ``state_<name>`` (time, ...) with their units
 (:attr:`bsrflow.numerics.packing.EulerianPacking.field_schema`, ``LagrangianPacking.field_schema``:
 on the grid's ``x``, or on the material points ``point`` and the bond lags ``lag``, with those
@@ -434,7 +435,8 @@ class NetCDFWriterND(NetCDFWriter):
     attrs, expected_snapshots : as for :class:`NetCDFWriter`; n_tracers : tracers per snapshot
     (0: the file has no tracer variables)."""
 
-    def __init__(self, path, grid, floor, attrs=None, expected_snapshots=None, n_tracers=0, per_depth=False):
+    def __init__(self, path, grid, floor, attrs=None, expected_snapshots=None, n_tracers=0, per_depth=False,
+                 state=None):
         self.path = os.fspath(path)
         self.grid = grid
         self.dim = int(grid.dim)
@@ -450,7 +452,11 @@ class NetCDFWriterND(NetCDFWriter):
         if self.n_tracers > 0:
             coords["tracer"] = np.arange(self.n_tracers, dtype=np.int32)
             sizes["tracer"] = self.n_tracers
-        self._init_schema(schema_nd(self.dim, self.n_tracers, per_depth), sizes, coords)
+        schema = schema_nd(self.dim, self.n_tracers, per_depth)
+        self.state = state
+        if state is not None:
+            _add_state_fields(state, schema, sizes, coords)
+        self._init_schema(schema, sizes, coords)
         self.attrs["time_variables"] = " ".join(self._time_vars)
         self.cell_volume = float(grid.cell_volume)
         self.height = coords["z"] - grid.lower[-1]          # above the grid's floor
@@ -460,16 +466,24 @@ class NetCDFWriterND(NetCDFWriter):
         self.closed = False
 
     @classmethod
-    def resume(cls, path, keep_before, grid, floor, expected_snapshots=None, n_tracers=0, per_depth=False):
+    def resume(cls, path, keep_before, grid, floor, expected_snapshots=None, n_tracers=0, per_depth=False,
+               state=None):
         """Reopen a partial n-D file, keep its snapshots with time < ``keep_before`` [s] (the
-        grid and the number of tracers must match) and return a writer that appends after them."""
+        grid, the number of tracers and the state fields must match) and return a writer that
+        appends after them."""
         data, attrs = read_snapshots(path)
-        w = cls(path, grid, floor, expected_snapshots=expected_snapshots, n_tracers=n_tracers, per_depth=per_depth)
+        w = cls(path, grid, floor, expected_snapshots=expected_snapshots, n_tracers=n_tracers, per_depth=per_depth,
+                state=state)
         if ("tracer_z" in data) != (w.n_tracers > 0) or ("tracer" in data and data["tracer"].size != w.n_tracers):
             raise ValueError(f"{os.fspath(path)}: its tracers differ from this run's")
         for a in w.axes:
             if a not in data or not np.array_equal(data[a], w.coords[a]):
                 raise ValueError(f"{os.fspath(path)}: its grid ({a}) differs from this run's")
+        missing = [k for k in w._time_vars if k not in data]
+        extra = [k for k in data if k.startswith("state_") and k not in w._time_vars]
+        if missing or extra:
+            raise ValueError(f"{os.fspath(path)}: its variables differ from this run's "
+                             f"({'missing ' + ', '.join(missing) if missing else 'also ' + ', '.join(extra)})")
         return w._keep(data, attrs, data["time"] < keep_before)
 
     def __call__(self, t, u, rho, tracers=None):
@@ -496,6 +510,9 @@ class NetCDFWriterND(NetCDFWriter):
         if self.n_tracers > 0:
             for k, a in enumerate(self.axes):
                 row[f"tracer_{a}"] = tr[:, k] + (fl if a == "z" else 0.0)
+        if self.state is not None:
+            for name, value in self.state[1]().items():
+                row[f"state_{name}"] = np.array(value, dtype=float, copy=True)
         return row
 
 

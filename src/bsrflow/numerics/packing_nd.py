@@ -581,6 +581,21 @@ class EulerianPackingND:
         self._fn = motion.fn
         self._params = np.ascontiguousarray(motion.params, dtype=np.float64)
 
+    def field_schema(self, per_depth: bool = False) -> dict:
+        """The named state fields: name -> (dimensions, units, long_name), the dimensions the
+        grid's axes (x, (y,) z; a column z).  ``per_depth``: a 2-D grid is a material uniform in
+        depth (the packing bed: densities per unit volume), not a planar continuum."""
+        axes = {1: ("z",), 2: ("x", "z"), 3: ("x", "y", "z")}[self.dim]
+        n = 3 if per_depth else self.dim
+        rho, mom, hist = f"kg m-{n}", f"kg m-{n - 1} s-1" if n > 1 else "kg s-1", f"kg m-{n - 1}" if n > 1 else "kg"
+        out = {"rho": (axes, rho, "density (the finite volumes' state)")}
+        for a in axes[:-1]:
+            out[f"momentum_{a}"] = (axes, mom, f"momentum density rho u_{a} (floor frame)")
+        out["momentum_z"] = (axes, mom, "momentum density rho u_z (floor frame)")
+        out["rho_delta_max"] = (axes, hist, "rho times delta_max, the largest overlap per contact reached "
+                                "(the history, advected in conserved form)")
+        return out
+
     @property
     def fields(self) -> dict:
         """The named state fields (views of the conserved state, interior cells, the grid's
