@@ -268,3 +268,12 @@ def test_set_overrides_a_layer_config(tmp_path, capsys):
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and words in err[0], (bad, err)
     assert not os.path.exists(tmp_path / "b.nc")
+    # an entry that is not a table is the file's one-line error with --set too (it was a traceback)
+    for text, words in [("layer = 5\n", "layer: 5 must be a table"),
+                        ('output = 5\n[layer]\nkind = "packing_bed"\n', "output: 5 must be a table"),
+                        ("[[layer]]\ndim = 2\n", "must be a table")]:
+        (tmp_path / "odd.toml").write_text(text)
+        assert main(["run", str(tmp_path / "odd.toml"), "--out", str(tmp_path / "b.nc"), "--quiet",
+                     "--set", "t_end=0.1"]) == 2, text
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and words in err[0], (text, err)

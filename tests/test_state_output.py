@@ -50,6 +50,7 @@ def test_lagrangian_state_fields_are_the_material_points(files):
         x = ds["state_position"].values
         assert ds["state_delta_max"].dims == ("time", "lag", "point")
         assert list(ds["lag"].values) == list(range(1, ds.sizes["lag"] + 1))
+        assert "the l-th point below it" in ds["lag"].attrs["long_name"]
         assert ds["state_position"].attrs["units"] == "m" and ds["state_velocity"].attrs["units"] == "m s-1"
         assert np.all(np.diff(x, axis=1) > 0.0)
         n_pts, n_sph = ds.sizes["point"], ds.sizes["tracer"]
@@ -104,6 +105,10 @@ def test_write_state_is_refused_where_it_does_not_apply(tmp_path, capsys):
                  "--out", str(tmp_path / "sw.nc")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "write_state" in err[0] and "no netCDF files" in err[0], err
+    cfg.write_text('[model]\nkernel = "packing"\n[run]\nt_end = 0.05\nwrite_state = true\n')
+    assert main(["sweep", str(cfg), "--param", "tap.a_over_d=0.5,1.0", "--out", str(tmp_path / "sw.nc")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "run.write_state = true in" in err[0] and "remove it" in err[0], err
 
 
 def test_a_packing_bed_writes_its_state_fields_and_resumes_them(tmp_path, capsys):

@@ -206,8 +206,25 @@ def _compare_in_workers(cases, base, models, auto_stiffness, workers, log, out_c
             s0 = s0.with_(stiffness_factor=suggest_stiffness_factor(s0))
         dem_wall = time.perf_counter() - w
         prepared.append((c, s0, dem, _metrics(dem[0], dem[1][:, -1], dem[1].mean(axis=1), s0), dem_wall))
-    pool = multiprocessing.get_context("spawn").Pool(workers, initializer=_ignore_sigint)
+    import signal
+    import threading
+    main_thread = threading.current_thread() is threading.main_thread()
+
+    def on_term(signum, frame):            # SIGTERM: stop the workers too, one line, exit 143
+        exc = KeyboardInterrupt("interrupted by SIGTERM")
+        exc.exit_code = 128 + int(signum)
+        raise exc
+    old_term = signal.signal(signal.SIGTERM, on_term) if main_thread else None
+    pool = None
     try:
+        # the workers start with Ctrl-C blocked (the mask is kept across their exec), so that a
+        # Ctrl-C while they import prints no traceback of theirs; one that reaches the parent
+        # meanwhile is delivered when it unblocks it, inside this try
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            pool = multiprocessing.get_context("spawn").Pool(workers, initializer=_ignore_sigint)
+        finally:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
         pending = [[pool.apply_async(_run_task, (c["name"], s0.with_(formulation=form, range_over_d=rng), dem,
                                                   dem_m, dem_wall)) for form, rng in models]
                    for c, s0, dem, dem_m, dem_wall in prepared]
@@ -224,8 +241,11 @@ def _compare_in_workers(cases, base, models, auto_stiffness, workers, log, out_c
             fig_runs[c["name"]] = (s0, runs, dem)
         pool.close()
     finally:
-        pool.terminate()                    # a stop or Ctrl-C ends the runs still going
-        pool.join()
+        if main_thread:
+            signal.signal(signal.SIGTERM, old_term)
+        if pool is not None:
+            pool.terminate()                # a stop, Ctrl-C or SIGTERM ends the runs still going
+            pool.join()
 
 
 def compare_packing(base: ColumnSetup | None = None, cases=None, models=PACKING_MODELS, figures=None, log=print,

@@ -47,9 +47,11 @@ def add_parser(sub):
                    "FILE.nc.ckpt")
     p.add_argument("--resume", action="store_true", help="continue from FILE.nc.ckpt (same config)")
     p.add_argument("--quiet", action="store_true", help="no progress bar, no summary")
-    p.add_argument("--scheme", choices=("seed", "accurate"), help="override numerics.scheme")
+    p.add_argument("--scheme", choices=("seed", "accurate"), help="override numerics.scheme (column configs)")
     p.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
-                   help="override a config value, e.g. --set tap.a_over_d=0.5 or --set f=12 (repeatable)")
+                   help="override a config value, e.g. --set tap.a_over_d=0.5 or --set f=12 (repeatable); "
+                   "for a layer config layer.<field>, a bare field or output.<key>, e.g. --set gamma=4; "
+                   "--resume takes the same items")
     p.set_defaults(func=_run)
 
 

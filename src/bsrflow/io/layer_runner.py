@@ -72,7 +72,8 @@ class LayerConfig:
     def resolved_text(self) -> str:
         """The config with every field of the scenario, the defaults included, as TOML (the
         output's ``config_resolved`` attribute: what ran, in full; ``config`` is the file as
-        given).  Loading it gives the same scenario."""
+        given, or with ``--set`` overrides the config as run, regenerated with a comment naming
+        them).  Loading it gives the same scenario."""
         import json
         kind = {v: k for k, v in _kind_classes().items()}[type(self.setup)]
         lines = ["[layer]", f"kind = {json.dumps(kind)}"]
@@ -126,15 +127,11 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
     the ``--set`` ``overrides`` applied (:func:`load_layer_config`)."""
     raw = text.encode("utf-8")
     data = tomllib.loads(text)
+    _check_tables(data)
     if overrides:
         data = _with_overrides(data, overrides)
         raw = (f"# {name} with --set " + " ".join(o.strip() for o in overrides)
                + "\n" + _dump_layer_toml(data)).encode("utf-8")
-    for table in data:
-        if table not in ("layer", "output", "tracers"):
-            raise ConfigError(str(table), "unknown table in a layer config; valid: [layer], [output], [tracers]")
-        if not isinstance(data[table], dict):
-            raise ConfigError(str(table), f"{data[table]!r} must be a table ([{table}] with its keys)")
     if "layer" not in data:
         raise ConfigError("layer", "no [layer] table: not a layer config")
     layer = dict(data["layer"])
@@ -186,6 +183,15 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
                               "(0: no checkpoints)")
     return LayerConfig(setup, vtk, None if ck is None else float(ck), raw.decode("utf-8"),
                        _tracer_positions(data.get("tracers"), setup), state)
+
+
+def _check_tables(data: dict) -> None:
+    """One line unless every top-level entry of a layer config is one of its tables."""
+    for table in data:
+        if table not in ("layer", "output", "tracers"):
+            raise ConfigError(str(table), "unknown table in a layer config; valid: [layer], [output], [tracers]")
+        if not isinstance(data[table], dict):
+            raise ConfigError(str(table), f"{data[table]!r} must be a table ([{table}] with its keys)")
 
 
 def _with_overrides(data: dict, overrides) -> dict:
@@ -502,9 +508,11 @@ def _toml_difference(now: str, text: str, where: str) -> str:
                 items[f"{prefix}{k}"] = v
         return items
     fa, fb = flat(a), flat(b)
+    def shown(v):
+        return "absent" if v is None else _toml_value(v)
     for key in sorted(set(fa) | set(fb)):
         if fa.get(key) != fb.get(key):
-            return f"{key} ({fb.get(key)!r} in {where}, {fa.get(key)!r} now)"
+            return f"{key} ({shown(fb.get(key))} in {where}, {shown(fa.get(key))} now)"
     return ""
 
 

@@ -518,6 +518,10 @@ def _main(args) -> int:
             raise ValueError(f"--set {key}: the parameter is also swept with --param")
         fixed[key] = coerce_value(key, parse_value(value))
     source = SetupSource.load(args.config)
+    config = getattr(source, "config", None)
+    if config is not None and config["run.write_state"]:
+        raise ValueError(f"run.write_state = true in {args.config}: sweep cases write no netCDF files (an option of "
+                         "`bsrflow run`); remove it")
     if fixed:
         source = source.with_fixed(fixed)
     n = int(np.prod([len(v) for v in params.values()]))
