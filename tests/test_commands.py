@@ -310,3 +310,27 @@ def test_a_negative_number_in_exponent_form_is_a_value(tmp_path, capsys):
         assert main(["compare-dump", str(tmp_path / "x.dump"), "--dt", value]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and "--dt -" in err[0] and "outside the valid range (0, inf)" in err[0], err
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_compare_ends_on_sigterm_with_one_line(workers):
+    """`bsrflow compare` (the main job's command) on SIGTERM: one line, exit 143, and with --workers no
+    worker process left (before, the serial compare died silently with -15 and the workers ran on)."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    cmd = [sys.executable, "-m", "bsrflow", "compare", "--kernel", "packing", "--cases", "d22mm_a0.5",
+           "--models", "eulerian:0", "--workers", str(workers)]
+    p = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    first = p.stdout.readline()                          # the header: the command is under way
+    assert first.startswith("bsrflow compare --kernel packing: 1 cases"), first
+    time.sleep(3.0)
+    os.kill(p.pid, signal.SIGTERM)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 143, (p.returncode, err)
+    assert err.strip().splitlines() == ["bsrflow compare: interrupted by SIGTERM"], err
+    time.sleep(1.0)
+    left = subprocess.run(["pgrep", "-f", f"{sys.executable}.*multiprocessing"], capture_output=True, text=True)
+    assert left.stdout.split() == [], left.stdout

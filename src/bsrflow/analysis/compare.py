@@ -294,7 +294,7 @@ def _packing_main(args) -> int:
           f"{'auto (impact Mach number 0.01)' if auto else format(base.stiffness_factor, 'g')}")
     try:
         result = compare_packing(base, cases=cases, models=models, figures=args.figures, auto_stiffness=auto,
-                                 workers=workers)
+                                 workers=workers, log=_log)
     except SimulationError as exc:
         if args.json is not None and getattr(exc, "partial", None) is not None:
             with open(args.json, "w") as fh:             # the cases finished before the stop are kept
@@ -323,7 +323,28 @@ def _setup_from_options(**kw) -> ColumnSetup:
         raise
 
 
+def _log(msg) -> None:
+    """Print a progress line of `bsrflow compare` / `demo`, then raise a Ctrl-C or SIGTERM that
+    numba swallowed while it compiled (:func:`bsrflow.io.commands._raise_pending`)."""
+    from ..io.commands import _raise_pending
+    print(msg, flush=True)
+    _raise_pending()
+
+
 def _main(args) -> int:
+    """`bsrflow compare` / `demo`: SIGTERM ends it as Ctrl-C does (one line, exit 143 / 130), and a
+    signal numba swallowed while compiling takes effect at the next progress line."""
+    from ..io.commands import _sigterm_as_interrupt
+    try:
+        with _sigterm_as_interrupt():
+            return _command(args)
+    except KeyboardInterrupt as exc:
+        if not str(exc):
+            exc.args = ("interrupted by Ctrl-C (SIGINT)",)
+        raise
+
+
+def _command(args) -> int:
     if getattr(args, "kernel", "seed") not in ("seed", "packing"):
         raise ValueError(f"--kernel = {args.kernel!r} is not one of seed, packing")
     if getattr(args, "kernel", "seed") == "packing":
@@ -352,13 +373,13 @@ def _main(args) -> int:
         if figures:
             check_output_dir(figures, "--figures", create=True)
     print(f"bsrflow {args.command}: tapped column, d = {base.diameter} m, scheme {args.scheme}")
-    result = compare(base, scheme=args.scheme, figures=figures)
+    result = compare(base, scheme=args.scheme, figures=figures, log=_log)
     print(format_table(result))
     if args.command == "demo":
         from .compare_packing import demo_packing, format_demo_table
         print("the packing continuum on the same cases (nothing fitted): the nonlocal interaction (lagrangian) "
               "and the local limit (eulerian):")
-        result = demo_packing(result, base, figures=os.path.join(args.out, "figures_packing"))
+        result = demo_packing(result, base, figures=os.path.join(args.out, "figures_packing"), log=_log)
         print(format_demo_table(result))
     if json_path:
         with open(json_path, "w") as fh:

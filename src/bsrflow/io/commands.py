@@ -56,10 +56,15 @@ def add_parser(sub):
 
 
 class _Terminated(KeyboardInterrupt):
-    """SIGTERM, handled like Ctrl-C (the run's file gets status "interrupted ...")."""
+    """SIGTERM, handled like Ctrl-C (the run's file gets status "interrupted ..."); exit code 143
+    unless the run words it otherwise."""
 
     signal_name = "SIGTERM"
     signal_number = int(signal.SIGTERM)
+    exit_code = 128 + int(signal.SIGTERM)
+
+    def __init__(self, *args):
+        super().__init__(*(args or ("interrupted by SIGTERM",)))
 
 
 _PENDING_SIGNALS: list = []
