@@ -83,30 +83,40 @@ def test_an_interrupt_reads_alike_for_every_kind(tmp_path, capsys, monkeypatch, 
 
 
 @pytest.mark.parametrize("kind", ["layer", "bed"])
-def test_a_layer_resume_names_what_differs_and_ignores_comments(tmp_path, capsys, kind):
-    """A layer's checkpoint is compared with the config key by key (as a column's is): a changed value is
-    named in the one-line refusal; a comment or blank line added to the config is not a difference."""
+def test_a_layer_resume_compares_the_resolved_configs(tmp_path, capsys, kind):
+    """A layer's checkpoint is compared with the config key by key on the resolved configs (as a column's
+    is): a changed value is named in the one-line refusal; a comment, a blank line or a field written out
+    at its default is no difference; a column config's run on the finished output is refused as another
+    kind of run."""
+    import dataclasses
+    import bsrflow.io.layer_runner as layer_runner
+    from bsrflow.io.layer_runner import load_layer_config
     text, _, t_ck, _ = KINDS[kind]
     cfg = tmp_path / "c.toml"
     cfg.write_text(text)
     out = tmp_path / "c.nc"
-    import bsrflow.io.layer_runner as layer_runner
-    from bsrflow.io.layer_runner import load_layer_config
 
     def stop(t):
         if t > 1.5 * t_ck:
             raise KeyboardInterrupt()
     with pytest.raises(KeyboardInterrupt):
         layer_runner.run_layer_config(load_layer_config(cfg), out, progress=stop)
-    cfg.write_text("# the same run, commented\n" + text.replace("save_every", "\n# the snapshots\nsave_every"))
     changed = text.replace("t_end = 0.05", "t_end = 0.06").replace("t_end = 0.005", "t_end = 0.006")
     (tmp_path / "d.toml").write_text(changed)
     assert main(["run", str(tmp_path / "d.toml"), "--out", str(out), "--resume", "--quiet"]) == 2
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and "the config differs from the checkpoint's in layer.t_end" in lines[0], lines
+    gravity = next(f.default for f in dataclasses.fields(load_layer_config(cfg).setup) if f.name == "gravity")
+    cfg.write_text("# the same run, commented\n" + text.replace("save_every", "\n# the snapshots\nsave_every")
+                   .replace("[output]", f"gravity = {gravity!r}\n[output]"))
     assert main(["run", str(cfg), "--out", str(out), "--resume", "--quiet"]) == 0
     with xr.open_dataset(out) as ds:
         assert ds.attrs["status"] == "ok"
+    col = tmp_path / "col.toml"
+    col.write_text(SEED)
+    assert main(["run", str(col), "--out", str(out), "--resume", "--quiet"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "not a config of this kind of run" in lines[0], lines
 
 
 @pytest.mark.parametrize("kind, names", [("seed", {"u", "rho"}), ("packing", {"position", "velocity", "delta_max"}),
@@ -172,32 +182,4 @@ def test_a_monitor_stop_records_the_steps_to_the_stop(tmp_path, capsys):
         assert "None" not in status                     # no "near x = None m" where no cell is to blame
 
 
-@pytest.mark.parametrize("kind", ["layer", "bed"])
-def test_a_layer_default_written_out_is_no_difference(tmp_path, capsys, kind):
-    """Layer configs are compared resolved, as column configs are: a field written out at its default
-    resumes; a column config's output is refused as another kind of run."""
-    text, _, t_ck, _ = KINDS[kind]
-    cfg = tmp_path / "c.toml"
-    cfg.write_text(text)
-    out = tmp_path / "c.nc"
-    import bsrflow.io.layer_runner as layer_runner
-    from bsrflow.io.layer_runner import load_layer_config
 
-    def stop(t):
-        if t > 1.5 * t_ck:
-            raise KeyboardInterrupt()
-    with pytest.raises(KeyboardInterrupt):
-        layer_runner.run_layer_config(load_layer_config(cfg), out, progress=stop)
-    default = dataclasses_default(load_layer_config(cfg).setup, "gravity")
-    cfg.write_text(text.replace("[output]", f"gravity = {default!r}\n[output]"))
-    assert main(["run", str(cfg), "--out", str(out), "--resume", "--quiet"]) == 0
-    col = tmp_path / "col.toml"
-    col.write_text(SEED)
-    assert main(["run", str(col), "--out", str(out), "--resume", "--quiet"]) == 2
-    lines = capsys.readouterr().err.strip().splitlines()
-    assert len(lines) == 1 and "not a config of this kind of run" in lines[0], lines
-
-
-def dataclasses_default(setup, name):
-    import dataclasses
-    return next(f.default for f in dataclasses.fields(setup) if f.name == name)
