@@ -334,3 +334,29 @@ def test_compare_ends_on_sigterm_with_one_line(workers):
     time.sleep(1.0)
     left = subprocess.run(["pgrep", "-f", f"{sys.executable}.*multiprocessing"], capture_output=True, text=True)
     assert left.stdout.split() == [], left.stdout
+
+
+def test_an_interrupted_packing_compare_keeps_its_finished_runs(tmp_path, monkeypatch, capsys):
+    """Ctrl-C (or SIGTERM) in `bsrflow compare --kernel packing --json PATH` writes the finished case-model
+    runs to PATH with "interrupted" and says so in its one line (before, everything was lost)."""
+    import bsrflow.analysis.compare as compare_cli
+    real = compare_cli._log
+    seen = []
+
+    def log(msg):
+        real(msg)
+        if msg.lstrip().startswith("d22mm_a0.5"):
+            seen.append(msg)
+            if len(seen) == 2:                       # after the second run of the first case
+                raise KeyboardInterrupt()
+    monkeypatch.setattr(compare_cli, "_log", log)
+    out = tmp_path / "p.json"
+    argv = ["compare", "--kernel", "packing", "--cases", "d22mm_a0.5,d22mm_a1.0", "--models", "lagrangian:1,lagrangian:0",
+            "--json", str(out)]
+    assert main(argv) == 130
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"bsrflow compare: interrupted by Ctrl-C (SIGINT); {out} keeps the 2 finished case-model run(s)"], err
+    data = json.loads(out.read_text())
+    assert data["interrupted"].startswith("interrupted by Ctrl-C") and data["fitted_constants"] == {}
+    assert [(c["name"], c["model"]) for c in data["cases"]] == [("d22mm_a0.5", "lagrangian R=1d"),
+                                                                  ("d22mm_a0.5", "lagrangian local")]

@@ -301,6 +301,16 @@ def _packing_main(args) -> int:
                 json.dump(exc.partial, fh, indent=2)
             print(f"wrote {args.json} (the cases before the stop)")
         raise
+    except KeyboardInterrupt as exc:                     # Ctrl-C / SIGTERM: the finished runs are kept too
+        partial = getattr(exc, "partial", None)
+        msg = " ".join(str(exc).split()) or "interrupted by Ctrl-C (SIGINT)"
+        if args.json is not None and partial is not None:
+            partial["interrupted"] = msg
+            with open(args.json, "w") as fh:
+                json.dump(partial, fh, indent=2)
+            msg += f"; {args.json} keeps the {len(partial['cases'])} finished case-model run(s)"
+        exc.args = (msg,)
+        raise
     print(format_packing_table(result))
     if args.json:
         with open(args.json, "w") as fh:

@@ -248,22 +248,10 @@ def _compare_in_workers(cases, base, models, auto_stiffness, workers, log, out_c
             pool.join()
 
 
-def compare_packing(base: ColumnSetup | None = None, cases=None, models=PACKING_MODELS, figures=None, log=print,
-                    auto_stiffness=False, workers=1):
-    """Run the comparison; returns the JSON-ready dict (module docstring).  ``models``: the
-    (formulation, R/d) pairs to run (:data:`PACKING_MODELS`).  ``auto_stiffness``: each case at the
-    reduced stiffness of impact Mach number 0.01 (``suggest_stiffness_factor``).  ``workers`` > 1:
-    the continuum runs on that many processes (the same numbers, each run being serial and
-    deterministic; the wall times then those of a shared machine)."""
+def _compare_serial(cases, base, models, auto_stiffness, log, out_cases, fig_runs):
+    """The runs of :func:`compare_packing` one after the other in this process."""
     from ..physics.column import suggest_stiffness_factor
     from .compare import run_dem_column
-    base = base or ColumnSetup()
-    cases = PACKING_CASES if cases is None else cases
-    t0 = time.perf_counter()
-    out_cases, fig_runs = [], {}
-    if workers > 1:
-        _compare_in_workers(cases, base, models, auto_stiffness, workers, log, out_cases, fig_runs)
-        cases = ()
     for c in cases:
         s0 = case_setup(c, base)
         w = time.perf_counter()
@@ -286,6 +274,30 @@ def compare_packing(base: ColumnSetup | None = None, cases=None, models=PACKING_
             out_cases.append(entry)
             _log_entry(log, c, entry, dem_m, dem_wall)
         fig_runs[c["name"]] = (s0, runs, dem)
+
+
+def compare_packing(base: ColumnSetup | None = None, cases=None, models=PACKING_MODELS, figures=None, log=print,
+                    auto_stiffness=False, workers=1):
+    """Run the comparison; returns the JSON-ready dict (module docstring).  ``models``: the
+    (formulation, R/d) pairs to run (:data:`PACKING_MODELS`).  ``auto_stiffness``: each case at the
+    reduced stiffness of impact Mach number 0.01 (``suggest_stiffness_factor``).  ``workers`` > 1:
+    the continuum runs on that many processes (the same numbers, each run being serial and
+    deterministic; the wall times then those of a shared machine).  A monitor's stop
+    (SimulationError) or an interrupt (KeyboardInterrupt) carries the finished runs as
+    ``partial`` (the JSON's form, with "stopped" or "interrupted")."""
+    base = base or ColumnSetup()
+    cases = PACKING_CASES if cases is None else cases
+    t0 = time.perf_counter()
+    out_cases, fig_runs = [], {}
+    try:
+        if workers > 1:
+            _compare_in_workers(cases, base, models, auto_stiffness, workers, log, out_cases, fig_runs)
+        else:
+            _compare_serial(cases, base, models, auto_stiffness, log, out_cases, fig_runs)
+    except KeyboardInterrupt as exc:         # Ctrl-C / SIGTERM: the finished runs for the caller to keep
+        exc.partial = {"fitted_constants": {}, "models": [model_label(*mdl) for mdl in models],
+                       "cases": out_cases, "interrupted": " ".join(str(exc).split()) or "interrupted"}
+        raise
     result = {"d": base.diameter, "scheme": "packing", "kernel": "packing", "calibration": None,
               "fitted_constants": {}, "models": [model_label(*mdl) for mdl in models], "cases": out_cases,
               "setup": base.with_(kernel_name="packing").to_dict(),
