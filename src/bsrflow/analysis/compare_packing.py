@@ -181,12 +181,17 @@ def _log_entry(log, c, entry, dem_m, dem_wall):
             f"{entry['bsr']['wall_s']:.1f} s, DEM {dem_wall:.1f} s")
 
 
+def _partial(models, out_cases, **why) -> dict:
+    """The JSON of the runs finished before a stop or an interrupt (``why``: "stopped" or
+    "interrupted" and its message), for the caller to keep."""
+    return {"fitted_constants": {}, "models": [model_label(*mdl) for mdl in models], "cases": out_cases, **why}
+
+
 def _stopped(c, form, rng, message, models, out_cases):
     """The SimulationError of a run a monitor stopped: which case and model, and the finished
     cases (``partial``) for the caller to keep."""
     exc = SimulationError(f"case {c['name']}, {model_label(form, rng)}: {message}", None, None, None, "stopped")
-    exc.partial = {"fitted_constants": {}, "models": [model_label(*mdl) for mdl in models],
-                   "cases": out_cases, "stopped": exc.args[0]}
+    exc.partial = _partial(models, out_cases, stopped=exc.args[0])
     return exc
 
 
@@ -267,8 +272,7 @@ def _compare_serial(cases, base, models, auto_stiffness, log, out_cases, fig_run
                                               dem_wall)
             except SimulationError as exc:     # say which run stopped; keep the finished cases for the caller
                 exc.args = (f"case {c['name']}, {model_label(form, rng)}: {exc.args[0] if exc.args else exc}",)
-                exc.partial = {"fitted_constants": {}, "models": [model_label(*mdl) for mdl in models],
-                               "cases": out_cases, "stopped": exc.args[0]}
+                exc.partial = _partial(models, out_cases, stopped=exc.args[0])
                 raise
             runs[entry["model"]] = run
             out_cases.append(entry)
@@ -295,8 +299,7 @@ def compare_packing(base: ColumnSetup | None = None, cases=None, models=PACKING_
         else:
             _compare_serial(cases, base, models, auto_stiffness, log, out_cases, fig_runs)
     except KeyboardInterrupt as exc:         # Ctrl-C / SIGTERM: the finished runs for the caller to keep
-        exc.partial = {"fitted_constants": {}, "models": [model_label(*mdl) for mdl in models],
-                       "cases": out_cases, "interrupted": " ".join(str(exc).split()) or "interrupted"}
+        exc.partial = _partial(models, out_cases, interrupted=" ".join(str(exc).split()) or "interrupted")
         raise
     result = {"d": base.diameter, "scheme": "packing", "kernel": "packing", "calibration": None,
               "fitted_constants": {}, "models": [model_label(*mdl) for mdl in models], "cases": out_cases,

@@ -43,7 +43,7 @@ from .config import ConfigError
 from .netcdf import finished_snapshots
 from .paths import OutputPathError, check_output_file
 
-__all__ = ["RunJob", "RunOutcome", "drive", "output_attrs", "write_failed", "check_checkpoint_version",
+__all__ = ["RunJob", "RunOutcome", "drive", "first_difference", "output_attrs", "write_failed", "check_checkpoint_version",
            "OTHER_KIND"]
 
 OTHER_KIND = "everything: it is not a config of this kind of run (or cannot be read)"
@@ -166,18 +166,33 @@ class RunJob(abc.ABC):
         """Rejected adaptive steps from t = 0."""
         return 0
 
-    def stop_attrs(self, exc: SimulationError) -> dict:
-        """Attributes written with the status of a run the monitor ``exc`` stopped: the steps from
-        t = 0 to the stop (a grid solver's stop carries its segment's result in ``exc.result``)."""
-        result = getattr(exc, "result", None)
-        steps = self.total_steps()
-        if result is not None and hasattr(result, "steps") and hasattr(self, "steps0"):
-            steps = self.steps0 + int(result.steps)
-        return {"steps": np.int64(steps), "rejected_steps": np.int64(self.rejected_steps())}
+    def stop_attrs(self) -> dict:
+        """Attributes written with the status of a run a monitor stopped: the steps from t = 0 to
+        the stop (:meth:`total_steps` counts them there too)."""
+        return {"steps": np.int64(self.total_steps()), "rejected_steps": np.int64(self.rejected_steps())}
 
     def vtk_collection(self) -> str | None:
         """The ``.pvd`` file of the VTK output, or None."""
         return None
+
+
+def first_difference(now: dict, then: dict, where: str) -> str:
+    """'' when the (nested) config tables ``now`` and ``then`` hold the same values, else the first
+    differing dotted key in words, e.g. "run.t_end (0.5 in the checkpoint, 0.6 now)" (a key
+    missing on one side shows as None).  Every job compares its resolved configs with it."""
+    def flat(d, prefix=""):
+        items = {}
+        for k, v in d.items():
+            if isinstance(v, dict):
+                items.update(flat(v, f"{prefix}{k}."))
+            else:
+                items[f"{prefix}{k}"] = v
+        return items
+    fa, fb = flat(now), flat(then)
+    for key in sorted(set(fa) | set(fb)):
+        if fa.get(key) != fb.get(key):
+            return f"{key} ({fb.get(key)!r} in {where}, {fa.get(key)!r} now)"
+    return ""
 
 
 def drive(job: RunJob, *, resume: bool = False, progress=None, log=None) -> RunOutcome:
@@ -347,7 +362,7 @@ def _closing_on_failure(job: RunJob, writer, interrupted):
     try:
         yield
     except SimulationError as exc:
-        writer.close(str(exc), **job.stop_attrs(exc))
+        writer.close(str(exc), **job.stop_attrs())
         raise
     except KeyboardInterrupt as exc:
         interrupted(exc)

@@ -43,7 +43,7 @@ import numpy as np
 
 from .checkpoint import Checkpoint, checkpoint_path
 from .config import ConfigError
-from .driver import OTHER_KIND, RunJob, RunOutcome, drive
+from .driver import OTHER_KIND, RunJob, RunOutcome, drive, first_difference
 
 __all__ = ["is_layer_config", "load_layer_config", "run_layer_config", "LayerOutcome"]
 
@@ -345,7 +345,7 @@ class _LayerBase(RunJob):
             then = _layer_config_from_text(text)
         except (ConfigError, ValueError, tomllib.TOMLDecodeError):
             return OTHER_KIND
-        return _toml_difference(self.cfg.resolved_text(), then.resolved_text(), where)
+        return first_difference(tomllib.loads(self.cfg.resolved_text()), tomllib.loads(then.resolved_text()), where)
 
     def _floor(self, t):
         return self.motion.state(t)[0]
@@ -421,9 +421,14 @@ class LayerJob(_LayerBase):
             self.steps_run = steps
             on_checkpoint(t, {"u": u, "rho": rho}, np.zeros((0, dim)) if tr is None else tr)
 
-        res = self.sim.run(self.u, self.rho, self.t_end, t_start=t0, save_times=save_times, observers=observers,
-                           progress=progress, extra_event_times=checkpoint_times, on_event=on_event,
-                           restart=self.restart, tracers=self.tracers)
+        from ..numerics.solver import SimulationError
+        try:
+            res = self.sim.run(self.u, self.rho, self.t_end, t_start=t0, save_times=save_times, observers=observers,
+                               progress=progress, extra_event_times=checkpoint_times, on_event=on_event,
+                               restart=self.restart, tracers=self.tracers)
+        except SimulationError as exc:      # a monitor's stop: its steps for the output's count
+            self.steps_run = getattr(exc.result, "steps", self.steps_run)
+            raise
         self.steps_run = res.steps
 
     def total_steps(self):
@@ -491,29 +496,6 @@ class PackingBedJob(_LayerBase):
 
     def total_steps(self):
         return int(self.disc.counters[0])
-
-
-def _toml_difference(now: str, text: str, where: str) -> str:
-    """'' when the TOML ``text`` (of a checkpoint or an output) is the config ``now`` (comments and
-    layout aside; both resolved, :meth:`LayerConfig.resolved_text`), else its first differing key
-    in words."""
-    a, b = tomllib.loads(now), tomllib.loads(text)
-
-    def flat(d, prefix=""):
-        items = {}
-        for k, v in d.items():
-            if isinstance(v, dict):
-                items.update(flat(v, f"{prefix}{k}."))
-            else:
-                items[f"{prefix}{k}"] = v
-        return items
-    fa, fb = flat(a), flat(b)
-    def shown(v):
-        return "absent" if v is None else _toml_value(v)
-    for key in sorted(set(fa) | set(fb)):
-        if fa.get(key) != fb.get(key):
-            return f"{key} ({shown(fb.get(key))} in {where}, {shown(fa.get(key))} now)"
-    return ""
 
 
 def _run_files(cfg: LayerConfig, out):

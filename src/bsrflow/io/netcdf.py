@@ -173,15 +173,7 @@ class NetCDFWriter:
             raise ValueError(f"{os.fspath(path)}: it has {data['tracer'].size} tracers, this run {n_tracers}")
         keep = data["time"] < keep_before
         w = cls(path, x, dx, n_tracers, floor, expected_snapshots=expected_snapshots, state=state)
-        missing = [k for k in w._time_vars if k not in data]
-        extra = [k for k in data if k.startswith("state_") and k not in w._time_vars]
-        if missing or extra:
-            raise ValueError(f"{os.fspath(path)}: its variables differ from this run's "
-                             f"({'missing ' + ', '.join(missing) if missing else 'also ' + ', '.join(extra)})")
-        for k in w._time_vars:
-            if k.startswith("state_") and data[k].shape[1:] != tuple(w.dim_sizes[d] for d in w.schema[k][0][1:]):
-                raise ValueError(f"{os.fspath(path)}: its {k} has the shape {data[k].shape[1:]} per snapshot, "
-                                 "this run's differs")
+        w._check_variables(path, data)
         return w._keep(data, attrs, keep)
 
     def _keep(self, data, attrs, keep):
@@ -222,10 +214,27 @@ class NetCDFWriter:
             "mass": mass,
             "kinetic_energy": 0.5 * (rho * u ** 2).sum() * self.dx,
         }
+        self._add_state_row(row)
+        return row
+
+    def _check_variables(self, path, data):
+        """Refuse (ValueError) to resume a file whose time-dependent variables, or the shapes of its
+        state fields, are not this writer's."""
+        missing = [k for k in self._time_vars if k not in data]
+        extra = [k for k in data if k.startswith("state_") and k not in self._time_vars]
+        if missing or extra:
+            raise ValueError(f"{os.fspath(path)}: its variables differ from this run's "
+                             f"({'missing ' + ', '.join(missing) if missing else 'also ' + ', '.join(extra)})")
+        for k in self._time_vars:
+            if k.startswith("state_") and data[k].shape[1:] != tuple(self.dim_sizes[d] for d in self.schema[k][0][1:]):
+                raise ValueError(f"{os.fspath(path)}: its {k} has the shape {data[k].shape[1:]} per snapshot, "
+                                 "this run's differs")
+
+    def _add_state_row(self, row):
+        """The state fields at this save into ``row`` (``state_<name>``), when the file holds them."""
         if self.state is not None:
             for name, value in self.state[1]().items():
                 row[f"state_{name}"] = np.array(value, dtype=float, copy=True)
-        return row
 
     def _append(self, row):
         for k in self._series_names:
@@ -479,11 +488,7 @@ class NetCDFWriterND(NetCDFWriter):
         for a in w.axes:
             if a not in data or not np.array_equal(data[a], w.coords[a]):
                 raise ValueError(f"{os.fspath(path)}: its grid ({a}) differs from this run's")
-        missing = [k for k in w._time_vars if k not in data]
-        extra = [k for k in data if k.startswith("state_") and k not in w._time_vars]
-        if missing or extra:
-            raise ValueError(f"{os.fspath(path)}: its variables differ from this run's "
-                             f"({'missing ' + ', '.join(missing) if missing else 'also ' + ', '.join(extra)})")
+        w._check_variables(path, data)
         return w._keep(data, attrs, data["time"] < keep_before)
 
     def __call__(self, t, u, rho, tracers=None):
@@ -510,9 +515,7 @@ class NetCDFWriterND(NetCDFWriter):
         if self.n_tracers > 0:
             for k, a in enumerate(self.axes):
                 row[f"tracer_{a}"] = tr[:, k] + (fl if a == "z" else 0.0)
-        if self.state is not None:
-            for name, value in self.state[1]().items():
-                row[f"state_{name}"] = np.array(value, dtype=float, copy=True)
+        self._add_state_row(row)
         return row
 
 

@@ -28,9 +28,11 @@ import tomllib
 
 import numpy as np
 
+from ..numerics.solver import SimulationError
 from ..physics.column import initial_density
 from .config import Config, ConfigError, saved_config
-from .driver import OTHER_KIND, RunJob, RunOutcome, check_checkpoint_version, drive, output_attrs, write_failed
+from .driver import (OTHER_KIND, RunJob, RunOutcome, check_checkpoint_version, drive, first_difference, output_attrs,
+                     write_failed)
 from .netcdf import NetCDFWriter
 
 __all__ = ["run_config", "RunOutcome", "column_simulation", "ColumnJob", "PackingColumnJob",
@@ -45,16 +47,6 @@ def column_simulation(config: Config):
     setup = config.column_setup()
     sim = setup.simulation(config.scheme())
     return setup, sim.grid, sim.model, sim
-
-
-def _config_difference(a: Config, b: Config, where: str = "the checkpoint") -> str:
-    da, db = a.to_dict(), b.to_dict()
-    for table in da:
-        for key in sorted(set(da[table]) | set(db[table])):
-            va, vb = da[table].get(key), db[table].get(key)
-            if va != vb:
-                return f"{table}.{key} ({vb!r} in {where}, {va!r} now)"
-    return ""
 
 
 def run_config(config: Config, out, *, resume: bool = False, progress=None, log=None) -> RunOutcome:
@@ -97,7 +89,7 @@ class _ColumnBase(RunJob):
 
     def config_difference(self, text, where):
         try:
-            return _config_difference(self.config, saved_config(text), where)
+            return first_difference(self.config.to_dict(), saved_config(text).to_dict(), where)
         except (ValueError, tomllib.TOMLDecodeError):
             return OTHER_KIND
 
@@ -157,9 +149,13 @@ class ColumnJob(_ColumnBase):
             self.steps_run = steps
             on_checkpoint(t, {"u": u, "rho": rho}, tr)
 
-        res = self.sim.run(self.u, self.rho, self.t_end, t_start=t0, save_times=save_times, tracers=self.tracers,
-                           observers=observers, progress=progress, extra_event_times=checkpoint_times,
-                           on_event=on_event, restart=self.restart)
+        try:
+            res = self.sim.run(self.u, self.rho, self.t_end, t_start=t0, save_times=save_times, tracers=self.tracers,
+                               observers=observers, progress=progress, extra_event_times=checkpoint_times,
+                               on_event=on_event, restart=self.restart)
+        except SimulationError as exc:      # a monitor's stop: its steps for the output's count
+            self.steps_run = getattr(exc.result, "steps", self.steps_run)
+            raise
         self.steps_run = res.steps
 
     def total_steps(self):
