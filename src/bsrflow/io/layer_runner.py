@@ -421,15 +421,10 @@ class LayerJob(_LayerBase):
             self.steps_run = steps
             on_checkpoint(t, {"u": u, "rho": rho}, np.zeros((0, dim)) if tr is None else tr)
 
-        from ..numerics.solver import SimulationError
-        try:
-            res = self.sim.run(self.u, self.rho, self.t_end, t_start=t0, save_times=save_times, observers=observers,
-                               progress=progress, extra_event_times=checkpoint_times, on_event=on_event,
-                               restart=self.restart, tracers=self.tracers)
-        except SimulationError as exc:      # a monitor's stop: its steps for the output's count
-            self.steps_run = getattr(exc.result, "steps", self.steps_run)
-            raise
-        self.steps_run = res.steps
+        from .runner import run_counting_steps
+        run_counting_steps(self, self.sim.run, self.u, self.rho, self.t_end, t_start=t0, save_times=save_times,
+                           observers=observers, progress=progress, extra_event_times=checkpoint_times,
+                           on_event=on_event, restart=self.restart, tracers=self.tracers)
 
     def total_steps(self):
         return self.steps0 + self.steps_run

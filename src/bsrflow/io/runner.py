@@ -149,14 +149,9 @@ class ColumnJob(_ColumnBase):
             self.steps_run = steps
             on_checkpoint(t, {"u": u, "rho": rho}, tr)
 
-        try:
-            res = self.sim.run(self.u, self.rho, self.t_end, t_start=t0, save_times=save_times, tracers=self.tracers,
-                               observers=observers, progress=progress, extra_event_times=checkpoint_times,
-                               on_event=on_event, restart=self.restart)
-        except SimulationError as exc:      # a monitor's stop: its steps for the output's count
-            self.steps_run = getattr(exc.result, "steps", self.steps_run)
-            raise
-        self.steps_run = res.steps
+        run_counting_steps(self, self.sim.run, self.u, self.rho, self.t_end, t_start=t0, save_times=save_times,
+                           tracers=self.tracers, observers=observers, progress=progress,
+                           extra_event_times=checkpoint_times, on_event=on_event, restart=self.restart)
 
     def total_steps(self):
         return self.steps0 + self.steps_run
@@ -208,6 +203,18 @@ class PackingColumnJob(_ColumnBase):
 
     def total_steps(self):
         return int(self.disc.counters[0])
+
+
+def run_counting_steps(job, run, *args, **kwargs):
+    """``run(*args, **kwargs)`` of a grid solver (:meth:`Simulation.run`, :meth:`SimulationND.run`)
+    for ``job``, setting ``job.steps_run`` to the steps of the segment, also when a monitor stops
+    it (the stop's ``result``), so that the output's count is the steps to the stop."""
+    try:
+        res = run(*args, **kwargs)
+    except SimulationError as exc:
+        job.steps_run = getattr(exc.result, "steps", job.steps_run)
+        raise
+    job.steps_run = res.steps
 
 
 def _grid_fields(ck, u_shape, rho_shape):
