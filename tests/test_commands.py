@@ -360,3 +360,40 @@ def test_an_interrupted_packing_compare_keeps_its_finished_runs(tmp_path, monkey
     assert data["interrupted"].startswith("interrupted by Ctrl-C") and data["fitted_constants"] == {}
     assert [(c["name"], c["model"]) for c in data["cases"]] == [("d22mm_a0.5", "lagrangian R=1d"),
                                                                   ("d22mm_a0.5", "lagrangian local")]
+
+
+@pytest.mark.parametrize("command, stop_at, kept", [
+    ("compare", "  single_tap_a1.0:", "the calibration and 2 seed-kernel case(s)"),
+    ("demo", "  packing lagrangian", "the calibration, 3 seed-kernel case(s) and 1 packing run(s)")])
+def test_an_interrupted_seed_compare_or_demo_keeps_what_it_finished(command, stop_at, kept, tmp_path, monkeypatch,
+                                                                    capsys):
+    """Ctrl-C (or SIGTERM) in `bsrflow compare --json PATH` (the seed kernel) or `bsrflow demo`
+    writes the calibration and the finished runs to the JSON with "interrupted" and says so in its
+    one line; before, both kept nothing. The calibration is patched to the demo's (a minute saved)."""
+    import bsrflow.analysis.compare as compare_cli
+    monkeypatch.setattr(compare_cli, "calibrate", lambda *a, **k: {"m0": 423.9, "kernel_dissipation": 0.8812})
+    real = compare_cli._log
+
+    def log(msg):
+        real(msg)
+        if msg.startswith(stop_at):
+            raise KeyboardInterrupt()
+    monkeypatch.setattr(compare_cli, "_log", log)
+    if command == "compare":
+        out = tmp_path / "c.json"
+        argv = ["compare", "--json", str(out)]
+    else:
+        argv = ["demo", "--out", str(tmp_path / "demo")]
+        out = tmp_path / "demo" / "compare.json"
+    assert main(argv) == 130
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"bsrflow {command}: interrupted by Ctrl-C (SIGINT); {out} keeps {kept}"], err
+    data = json.loads(out.read_text())
+    assert data["interrupted"].startswith("interrupted by Ctrl-C")
+    assert data["calibration"] == {"m0": 423.9, "kernel_dissipation": 0.8812}
+    if command == "compare":
+        assert [c["name"] for c in data["cases"]] == ["single_tap_a0.75", "single_tap_a1.0"]
+        assert data["cases"][0]["bsr"]["top_max_over_d"] > 20 and "packing" not in data
+    else:
+        assert len(data["cases"]) == 3 and data["packing_fitted_constants"] == {}
+        assert [(c["name"], c["model"]) for c in data["packing"]] == [("single_tap_a0.75", "lagrangian R=1d")]

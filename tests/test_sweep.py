@@ -340,3 +340,20 @@ def test_an_interrupted_sweep_writes_its_finished_cases(tmp_path, monkeypatch, c
         assert sorted(status) == ["interrupted", "interrupted", "ok"], status
         assert ds.attrs["interrupted"] == "after 1 of 3 cases" and ds.attrs["cases_ok"] == 1
         assert np.isfinite(ds["top_max"].values[status.index("ok")])
+
+
+def test_sweep_refuses_checkpoint_every_from_its_config_file(tmp_path, capsys):
+    """Sweep cases write no checkpoints: `run.checkpoint_every` in the sweep's config file is refused
+    in one line (exit 2, nothing written) as `--set run.checkpoint_every=...` is; it was ignored."""
+    from bsrflow.cli import main
+    cfg = tmp_path / "s.toml"
+    cfg.write_text("[run]\nt_end = 0.05\ncheckpoint_every = 0.01\n")
+    out = tmp_path / "sw.nc"
+    assert main(["sweep", str(cfg), "--param", "tap.a_over_d=0.5,1.0", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"run.checkpoint_every in {cfg}" in err[0] and "no checkpoints" in err[0], err
+    assert not out.exists()
+    assert main(["sweep", str(cfg), "--param", "tap.a_over_d=0.5,1.0", "--set", "run.checkpoint_every=0.02",
+                 "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--set run.checkpoint_every" in err[0] and "no checkpoints" in err[0], err

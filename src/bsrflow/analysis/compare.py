@@ -23,6 +23,7 @@ rest, in units of d.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -122,9 +123,21 @@ def calibrate(setup: ColumnSetup, dem, log=print, grid_m0=None, grid_eps=(0.1, 0
 
 def compare(base: ColumnSetup | None = None, scheme="seed", figures=None, log=print, calibration=None,
             include_seed_as_printed=True):
-    """Run the comparison; returns the JSON-ready dict."""
+    """Run the comparison; returns the JSON-ready dict. A stop (SimulationError) or an interrupt
+    (KeyboardInterrupt, also SIGTERM) carries what was finished as ``exc.partial``: the JSON's form
+    with the calibration (``None`` before it ended) and the finished cases."""
     base = base or ColumnSetup(scheme=scheme)
     base = base.with_(scheme=scheme)
+    out_cases, state = [], {"calibration": calibration}
+    try:
+        return _compare(base, scheme, figures, log, include_seed_as_printed, out_cases, state)
+    except (SimulationError, KeyboardInterrupt) as exc:
+        exc.partial = {"d": base.diameter, "scheme": scheme, "calibration": state["calibration"], "cases": out_cases,
+                       "setup": base.to_dict()}
+        raise
+
+
+def _compare(base, scheme, figures, log, include_seed_as_printed, out_cases, state):
     d = base.diameter
     t0 = time.perf_counter()
     setups = {c["name"]: base.with_(a_over_d=c["a_over_d"], n_taps=c["n_taps"], t_end=c["t_end"]) for c in CASES}
@@ -134,10 +147,11 @@ def compare(base: ColumnSetup | None = None, scheme="seed", figures=None, log=pr
         dems[c["name"]] = run_dem_column(setups[c["name"]])
         if log:
             log(f"  DEM {c['name']}: {time.perf_counter() - w:.1f} s")
+    calibration = state["calibration"]
     if calibration is None:
         cal_case = next(c for c in CASES if c["calibrated_on"])
-        calibration = calibrate(setups[cal_case["name"]], dems[cal_case["name"]], log=log)
-    out_cases, runs = [], {}
+        calibration = state["calibration"] = calibrate(setups[cal_case["name"]], dems[cal_case["name"]], log=log)
+    runs = {}
     for c in CASES:
         s = setups[c["name"]].with_(m0=calibration["m0"], kernel_dissipation=calibration["kernel_dissipation"])
         w = time.perf_counter()
@@ -292,34 +306,56 @@ def _packing_main(args) -> int:
     print(f"bsrflow compare --kernel packing: {len(cases)} cases, models {', '.join(model_label(*mdl) for mdl in models)}, "
           f"{base.points_per_diameter} points per diameter, stiffness factor "
           f"{'auto (impact Mach number 0.01)' if auto else format(base.stiffness_factor, 'g')}")
-    try:
+    with _keeping_partial(args.json, lambda p: f"the {len(p['cases'])} finished case-model run(s)"):
         result = compare_packing(base, cases=cases, models=models, figures=args.figures, auto_stiffness=auto,
                                  workers=workers, log=_log)
-    except SimulationError as exc:
-        if args.json is not None and getattr(exc, "partial", None) is not None:
-            with open(args.json, "w") as fh:             # the cases finished before the stop are kept
-                json.dump(exc.partial, fh, indent=2)
-            print(f"wrote {args.json} (the cases before the stop)")
-        raise
-    except KeyboardInterrupt as exc:                     # Ctrl-C / SIGTERM: the finished runs are kept too
-        partial = getattr(exc, "partial", None)
-        msg = " ".join(str(exc).split()) or "interrupted by Ctrl-C (SIGINT)"
-        if args.json is not None and partial is not None:
-            partial["interrupted"] = msg
-            with open(args.json, "w") as fh:
-                json.dump(partial, fh, indent=2)
-            msg += f"; {args.json} keeps the {len(partial['cases'])} finished case-model run(s)"
-        exc.args = (msg,)
-        raise
     print(format_packing_table(result))
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(result, fh, indent=2)
+        _write_json(args.json, result)
         print(f"wrote {args.json}")
     return 0
 
 
 _OPTION_OF = {"points_per_diameter": "--ppd", "diameter": "--diameter", "stiffness_factor": "--stiffness-factor"}
+
+
+@contextlib.contextmanager
+def _keeping_partial(json_path, finished):
+    """Keep the runs finished before a stop (SimulationError) or an interrupt (Ctrl-C, SIGTERM):
+    the exception's ``partial`` (the JSON's form) is written to ``json_path`` with "stopped" or
+    "interrupted" and its message; ``finished(partial)`` says in words what it holds."""
+    try:
+        yield
+    except SimulationError as exc:
+        partial = getattr(exc, "partial", None)
+        if json_path is not None and partial is not None:
+            partial.setdefault("stopped", " ".join(str(exc).split()))
+            _write_json(json_path, partial)
+            print(f"wrote {json_path} (the runs before the stop: {finished(partial)})")
+        raise
+    except KeyboardInterrupt as exc:
+        partial = getattr(exc, "partial", None)
+        msg = " ".join(str(exc).split()) or "interrupted by Ctrl-C (SIGINT)"
+        if json_path is not None and partial is not None:
+            partial["interrupted"] = msg
+            _write_json(json_path, partial)
+            msg += f"; {json_path} keeps {finished(partial)}"
+        exc.args = (msg,)
+        raise
+
+
+def _write_json(path, result) -> None:
+    with open(path, "w") as fh:
+        json.dump(result, fh, indent=2)
+
+
+def _seed_finished(partial) -> str:
+    """What a partial seed-kernel comparison (or demo) holds, in words."""
+    words = ["the calibration" if partial.get("calibration") else "no calibration",
+             f"{len(partial['cases'])} seed-kernel case(s)"]
+    if "packing" in partial:
+        words.append(f"{len(partial['packing'])} packing run(s)")
+    return ", ".join(words[:-1]) + " and " + words[-1]
 
 
 def _setup_from_options(**kw) -> ColumnSetup:
@@ -383,17 +419,17 @@ def _command(args) -> int:
         if figures:
             check_output_dir(figures, "--figures", create=True)
     print(f"bsrflow {args.command}: tapped column, d = {base.diameter} m, scheme {args.scheme}")
-    result = compare(base, scheme=args.scheme, figures=figures, log=_log)
-    print(format_table(result))
-    if args.command == "demo":
-        from .compare_packing import demo_packing, format_demo_table
-        print("the packing continuum on the same cases (nothing fitted): the nonlocal interaction (lagrangian) "
-              "and the local limit (eulerian):")
-        result = demo_packing(result, base, figures=os.path.join(args.out, "figures_packing"), log=_log)
-        print(format_demo_table(result))
+    with _keeping_partial(json_path, _seed_finished):
+        result = compare(base, scheme=args.scheme, figures=figures, log=_log)
+        print(format_table(result))
+        if args.command == "demo":
+            from .compare_packing import demo_packing, format_demo_table
+            print("the packing continuum on the same cases (nothing fitted): the nonlocal interaction (lagrangian) "
+                  "and the local limit (eulerian):")
+            result = demo_packing(result, base, figures=os.path.join(args.out, "figures_packing"), log=_log)
+            print(format_demo_table(result))
     if json_path:
-        with open(json_path, "w") as fh:
-            json.dump(result, fh, indent=2)
+        _write_json(json_path, result)
         print(f"wrote {json_path}")
     if figures:
         print(f"figures in {figures}/" + (f" and {os.path.join(args.out, 'figures_packing')}/"

@@ -335,10 +335,24 @@ def demo_packing(seed_result: dict, base: ColumnSetup, figures=None, models=DEMO
     """``make demo``: the packing continuum (nothing fitted) on the cases of the seed comparison
     ``seed_result`` (:func:`bsrflow.analysis.compare.compare`), with the calibrated seed kernel
     and the DEM on the same figures; returns ``seed_result`` with ``"packing"`` (a list of case
-    entries as in :func:`compare_packing`) and ``"packing_fitted_constants": {}`` added."""
+    entries as in :func:`compare_packing`) and ``"packing_fitted_constants": {}`` added. A stop
+    or an interrupt carries ``seed_result`` with the finished entries as ``exc.partial``."""
+    entries = []
+    try:
+        _demo_packing_runs(seed_result, base, figures, models, log, entries)
+    except (SimulationError, KeyboardInterrupt) as exc:
+        exc.partial = seed_result | {"packing": entries, "packing_fitted_constants": {}}
+        raise
+    seed_result["packing"] = entries
+    seed_result["packing_fitted_constants"] = {}
+    if figures:
+        seed_result["figures_packing"] = sorted(os.listdir(figures))
+    return seed_result
+
+
+def _demo_packing_runs(seed_result, base, figures, models, log, entries):
     from .compare import CASES, run_dem_column
     cal = seed_result["calibration"]
-    entries = []
     for c in CASES:
         s0 = base.with_(a_over_d=c["a_over_d"], n_taps=c["n_taps"], t_end=c["t_end"])
         seed_run = run_bsr_column(s0.with_(m0=cal["m0"], kernel_dissipation=cal["kernel_dissipation"]))
@@ -359,11 +373,6 @@ def demo_packing(seed_result: dict, base: ColumnSetup, figures=None, models=DEMO
         if figures:
             from .. import plots
             plots.packing_case_figures(c["name"], s0, runs, dem, figures, seed_run=seed_run)
-    seed_result["packing"] = entries
-    seed_result["packing_fitted_constants"] = {}
-    if figures:
-        seed_result["figures_packing"] = sorted(os.listdir(figures))
-    return seed_result
 
 
 def format_demo_table(result) -> str:

@@ -522,6 +522,9 @@ def _main(args) -> int:
     if config is not None and config["run.write_state"]:
         raise ValueError(f"run.write_state = true in {args.config}: sweep cases write no netCDF files (an option of "
                          "`bsrflow run`); remove it")
+    if config is not None and config["run.checkpoint_every"] is not None:
+        raise ValueError(f"run.checkpoint_every in {args.config}: sweep cases write no checkpoints (an option of "
+                         "`bsrflow run`); remove it")
     if fixed:
         source = source.with_fixed(fixed)
     n = int(np.prod([len(v) for v in params.values()]))
