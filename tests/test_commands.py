@@ -397,3 +397,27 @@ def test_an_interrupted_seed_compare_or_demo_keeps_what_it_finished(command, sto
     else:
         assert len(data["cases"]) == 3 and data["packing_fitted_constants"] == {}
         assert [(c["name"], c["model"]) for c in data["packing"]] == [("single_tap_a0.75", "lagrangian R=1d")]
+
+
+def test_compare_bed_shows_progress_and_keeps_its_finished_runs_on_sigterm(tmp_path):
+    """`bsrflow compare-bed` prints a line per finished run (it was silent for its 3–4 minutes), and a
+    real SIGTERM ends it with one line, exit 143, its --json keeping the finished runs with
+    "interrupted" (before, SIGTERM killed it without a word and nothing was kept)."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    out = tmp_path / "bed.json"
+    cmd = [sys.executable, "-m", "bsrflow", "compare-bed", "--gammas", "3", "2.5", "2", "--no-extra", "--json", str(out)]
+    p = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert p.stdout.readline().startswith("bsrflow compare-bed: 3 Γ of the LIGGGHTS runs")
+    first = p.stdout.readline()                      # the first run's line: Γ = 3 is done
+    assert first.startswith("  Γ = 3, e = 0.9: flight 25.3 ms (LIGGGHTS 27.2 ms)"), first
+    os.kill(p.pid, signal.SIGTERM)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 143, (p.returncode, err)
+    assert err.strip().splitlines() == [f"bsrflow compare-bed: interrupted by SIGTERM; {out} keeps 1 finished run(s)"], err
+    data = json.loads(out.read_text())
+    assert data["interrupted"] == "interrupted by SIGTERM" and data["fitted_constants"] == {}
+    assert [c["gamma"] for c in data["cases"]] == [3.0] and data["extra_cases"] == []
+    assert abs(data["cases"][0]["flight_time_rel_diff"] + 0.0686) < 5e-4

@@ -74,7 +74,20 @@ def _given_twice(parser, argv) -> str | None:
 
 
 def main(argv=None) -> int:
-    parser = build_parser()
+    from .io.commands import _sigterm_as_interrupt
+    # SIGTERM ends every command as Ctrl-C does (one line, exit 143 / 130), from before the
+    # command modules are imported (a signal in the first ~0.4 s, while Python imports numba,
+    # still meets Python's defaults)
+    with _sigterm_as_interrupt():
+        return _main(argv)
+
+
+def _main(argv) -> int:
+    try:
+        parser = build_parser()
+    except KeyboardInterrupt as exc:
+        print(f"bsrflow: {' '.join(str(exc).split()) or 'interrupted'}", file=sys.stderr)
+        return int(getattr(exc, "exit_code", 130))
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):

@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..numerics.solver import SimulationError
 from ..physics.granular_bed import BedSetup
 
 __all__ = ["REFERENCE", "flights_from_force", "flight_per_cycle", "period_doubling_measure", "compare_bed",
@@ -180,32 +181,49 @@ def reference_bed(ref: Path, n_cells=200):
     return gammas, params, base
 
 
-def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, progress=None, include_extra=True):
-    """Run the comparison (module docstring); returns the JSON-ready dict."""
+MODEL = ("packing stress + granular temperature (bsrflow.physics.granular_bed), horizontally uniform bed "
+         "(1-D limit of the 3-D bed)")
+
+
+def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, progress=None, include_extra=True,
+                log=None):
+    """Run the comparison (module docstring); returns the JSON-ready dict.  ``log(line)`` is called
+    after every run.  An interrupt (KeyboardInterrupt, also SIGTERM) or a stop (SimulationError)
+    carries the finished runs as ``exc.partial`` (the JSON's form without the summaries)."""
     ref = Path(reference)
     known, params, base = reference_bed(ref, n_cells)
     gammas = [float(g) for g in (known if gammas is None else gammas)]
-    cases, runs = [], {}
-    for g in gammas:
-        case, res, traj = _compare_one(base.with_(gamma=g), ref, "", progress)
-        cases.append(case)
-        runs[g] = (res, traj)
-    extra = []
-    if include_extra:
-        e05 = _read_csv(ref / "flight_vs_gamma_e0.5.csv")
-        for g in [float(x) for x in e05["gamma"]]:
-            case, _, _ = _compare_one(base.with_(gamma=g, restitution=0.5), ref, "_e0.5", progress)
-            case["dem"] = "LIGGGHTS Walton-Braun e = 0.5, frictionless"
-            extra.append(case)
-        for tag, what in (("_hooke_mu0.5", "LIGGGHTS spring-dashpot, friction 0.5 (the continuum has none)"),
-                          ("_hooke", "LIGGGHTS spring-dashpot, frictionless (the friction run's control)")):
-            case, _, _ = _compare_one(base.with_(gamma=3.0), ref, tag, progress)
-            case["dem"] = what
-            extra.append(case)
+    cases, runs, extra = [], {}, []
+
+    def one(setup, tag, into, dem=None):
+        case, res, traj = _compare_one(setup, ref, tag, progress)
+        if dem is not None:
+            case["dem"] = dem
+        into.append(case)
+        if log:
+            log(f"  Γ = {case['gamma']:g}, e = {case['restitution']:g}{' (' + dem + ')' if dem else ''}: flight "
+                f"{1e3 * case['flight_time_s']:.1f} ms (LIGGGHTS {1e3 * case.get('dem_flight_time_s', math.nan):.1f} ms), "
+                f"mass-centre RMS {case.get('mass_centre_rms_over_d', math.nan):.2f} d, {case['wall_time_s']:.1f} s")
+        return res, traj
+
+    try:
+        for g in gammas:
+            runs[g] = one(base.with_(gamma=g), "", cases)
+        if include_extra:
+            e05 = _read_csv(ref / "flight_vs_gamma_e0.5.csv")
+            for g in [float(x) for x in e05["gamma"]]:
+                one(base.with_(gamma=g, restitution=0.5), "_e0.5", extra,
+                    "LIGGGHTS Walton-Braun e = 0.5, frictionless")
+            for tag, what in (("_hooke_mu0.5", "LIGGGHTS spring-dashpot, friction 0.5 (the continuum has none)"),
+                              ("_hooke", "LIGGGHTS spring-dashpot, frictionless (the friction run's control)")):
+                one(base.with_(gamma=3.0), tag, extra, what)
+    except (KeyboardInterrupt, SimulationError) as exc:
+        exc.partial = {"model": MODEL, "fitted_constants": {}, "n_cells": n_cells, "cases": cases,
+                       "extra_cases": extra}
+        raise
     g3 = next((c for c in cases if c["gamma"] == 3.0), None)
     out = {
-        "model": "packing stress + granular temperature (bsrflow.physics.granular_bed), horizontally uniform bed "
-                 "(1-D limit of the 3-D bed)",
+        "model": MODEL,
         "fitted_constants": {},
         "inputs": {"phi_c": base.phi_c, "coordination": base.coordination,
                    "note": "phi_c and the sphere-sphere Z of the settled LIGGGHTS bed (reference README), measured, "
@@ -311,7 +329,7 @@ def add_parser(sub):
     p.add_argument("--figures", metavar="DIR", help="write the figures to DIR (created if missing; the folder "
                                                      "holding it must exist)")
     p.add_argument("--gammas", type=float, nargs="+", metavar="G",
-                   help="only these Γ of the main runs (default: all, 1.5 to 6)")
+                   help="only these Γ of the main runs (default: every Γ of the LIGGGHTS runs, 1.5 to 8)")
     p.add_argument("--cells", type=int, default=200, metavar="N", help="Lagrangian cells over the bed (default 200)")
     p.add_argument("--no-extra", action="store_true", help="skip the e = 0.5 and friction comparisons")
     p.add_argument("--reference", default=os.fspath(REFERENCE), metavar="DIR",
@@ -343,11 +361,24 @@ def _main(args) -> int:
     if args.figures is not None:                     # created only once everything else is checked
         check_output_dir(args.figures, "--figures", create=True)
     t0 = time.perf_counter()
-    out = compare_bed(args.gammas, args.cells, ref, args.figures, include_extra=not args.no_extra)
+    n_main = len(args.gammas or known)
+    print(f"bsrflow compare-bed: {n_main} Γ of the LIGGGHTS runs{'' if args.no_extra else ' and the e = 0.5 and friction runs'}, "
+          f"{args.cells} cells", flush=True)
+    from .compare import _keeping_partial, _log
+    with _keeping_partial(args.json, lambda p: f"{len(p['cases']) + len(p['extra_cases'])} finished run(s)"):
+        out = compare_bed(args.gammas, args.cells, ref, args.figures, include_extra=not args.no_extra, log=_log)
     print(format_table(out))
-    pd = out["period_doubling_gamma"]
-    print(f"period-doubling Γ: continuum {pd['continuum']}, LIGGGHTS {pd['dem']}; cost (Γ = 3): continuum "
-          f"{out['cost_s']['continuum']}, LIGGGHTS {out['cost_s']['dem']} s; total {time.perf_counter() - t0:.1f} s")
+    pd, cost = out["period_doubling_gamma"], out["cost_s"]
+
+    def gamma_text(g):
+        return "none in the range" if g is None else f"{g:g}"
+
+    def seconds(v):
+        return "not measured" if v is None else f"{v:.1f} s"
+    print(f"period-doubling Γ: continuum {gamma_text(pd['continuum'])}, LIGGGHTS {gamma_text(pd['dem'])}; "
+          f"cost (Γ = 3): continuum {seconds(cost['continuum'])}, LIGGGHTS {seconds(cost['dem'])}; "
+          f"total {time.perf_counter() - t0:.1f} s")
     if args.json:
         Path(args.json).write_text(json.dumps(out, indent=1))
+        print(f"wrote {args.json}")
     return 0

@@ -68,34 +68,85 @@ class _Terminated(KeyboardInterrupt):
 
 
 _PENDING_SIGNALS: list = []
-"""Signals received inside :func:`_sigterm_as_interrupt` whose interrupt may not have reached
-the run: one that arrives while numba compiles is raised inside llvmlite's ctypes callback,
-which prints "Exception ignored" and goes on (a review, 2026-12-02).  :func:`_raise_pending`
-raises it again at the run's next progress call (the first one follows the compilation)."""
+"""Signals received inside :func:`_sigterm_as_interrupt` whose interrupt has not reached the
+command yet.  An exception raised while numba compiles, inside one of llvmlite's ctypes callbacks,
+is swallowed there (Python prints "Exception ignored ..." with a traceback and goes on; a review,
+2026-12-02), so the handler does not raise in such a callback: it records the signal and sends it
+again 0.25 s later (:func:`_resend_later`) until it arrives in ordinary Python code, where it
+raises.  :func:`_raise_pending` raises a recorded one at a command's progress call."""
+
+_RESEND = {"timer": None, "resent": False, "raised": False, "lock": threading.Lock()}
+RESEND_DELAY_S = 0.25
+
+
+def _in_ctypes_callback(frame) -> bool:
+    """True when the signal arrived in llvmlite's Python code (numba compiling): an exception
+    raised there may be inside a ctypes callback, which swallows it."""
+    return frame is not None and "llvmlite" in frame.f_code.co_filename
+
+
+def _resend_later(signum) -> None:
+    """Send ``signum`` to this process again after RESEND_DELAY_S, unless an interrupt has been
+    raised by then."""
+    def resend():
+        with _RESEND["lock"]:
+            _RESEND["timer"] = None
+            if _RESEND["raised"] or not _PENDING_SIGNALS:
+                return
+            _RESEND["resent"] = True
+        os.kill(os.getpid(), signum)
+    with _RESEND["lock"]:
+        if _RESEND["timer"] is None and not _RESEND["raised"]:
+            _RESEND["timer"] = threading.Timer(RESEND_DELAY_S, resend)
+            _RESEND["timer"].daemon = True
+            _RESEND["timer"].start()
+
+
+def _mark_raised() -> None:
+    with _RESEND["lock"]:
+        _RESEND["raised"] = True
+        if _RESEND["timer"] is not None:
+            _RESEND["timer"].cancel()
+            _RESEND["timer"] = None
 
 
 def _raise_pending():
     """Raise the interrupt of a signal recorded in :data:`_PENDING_SIGNALS` (and forget it)."""
-    if _PENDING_SIGNALS:
-        signum = _PENDING_SIGNALS[-1]
+    with _RESEND["lock"]:
+        signum = _PENDING_SIGNALS[-1] if _PENDING_SIGNALS else None
         _PENDING_SIGNALS.clear()
+    if signum is not None:
+        _mark_raised()
         raise _Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
 
 
 @contextlib.contextmanager
 def _sigterm_as_interrupt():
     """While the block runs, SIGTERM raises :class:`_Terminated` (a KeyboardInterrupt) in the
-    main thread, so a terminated run closes its file as an interrupted one does; SIGTERM and
-    SIGINT are also recorded for :func:`_raise_pending` (the interrupt can be swallowed)."""
-    _PENDING_SIGNALS.clear()
+    main thread, so a terminated run closes its file as an interrupted one does; a signal that
+    arrives while numba compiles is delivered again once the compiler is back in ordinary code
+    (:data:`_PENDING_SIGNALS`).  `bsrflow.cli.main` runs every command inside it."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
 
     def handler(signum, frame):
-        _PENDING_SIGNALS.append(signum)
+        with _RESEND["lock"]:
+            if _RESEND["resent"]:
+                _RESEND["resent"] = False
+                if _RESEND["raised"]:
+                    return                  # the resent copy of a signal raised meanwhile
+            if signum not in _PENDING_SIGNALS:
+                _PENDING_SIGNALS.append(signum)
+        if _in_ctypes_callback(frame):
+            _resend_later(signum)           # not raised here: the callback would swallow it
+            return
+        _mark_raised()
         raise _Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
 
+    with _RESEND["lock"]:
+        _PENDING_SIGNALS.clear()
+        _RESEND["resent"] = _RESEND["raised"] = False
     old_term = signal.signal(signal.SIGTERM, handler)
     old_int = signal.signal(signal.SIGINT, handler)
     try:
@@ -103,7 +154,11 @@ def _sigterm_as_interrupt():
     finally:
         signal.signal(signal.SIGTERM, old_term)
         signal.signal(signal.SIGINT, old_int)
-        _PENDING_SIGNALS.clear()
+        with _RESEND["lock"]:
+            _PENDING_SIGNALS.clear()
+            if _RESEND["timer"] is not None:
+                _RESEND["timer"].cancel()
+                _RESEND["timer"] = None
 
 
 def _init(args) -> int:
