@@ -421,3 +421,24 @@ def test_compare_bed_shows_progress_and_keeps_its_finished_runs_on_sigterm(tmp_p
     assert data["interrupted"] == "interrupted by SIGTERM" and data["fitted_constants"] == {}
     assert [c["gamma"] for c in data["cases"]] == [3.0] and data["extra_cases"] == []
     assert abs(data["cases"][0]["flight_time_rel_diff"] + 0.0686) < 5e-4
+
+
+def test_a_signal_during_numbas_compile_is_sent_again_not_swallowed():
+    """A SIGTERM that arrives in llvmlite's Python code (numba compiling, where a ctypes callback
+    would swallow the exception with an "Exception ignored" traceback) is not raised there: it is
+    recorded and sent again 0.25 s later, and raises once the program is back in ordinary code."""
+    import signal
+    import time
+
+    from bsrflow.io.commands import _sigterm_as_interrupt, _Terminated
+    fake = {}
+    exec(compile("import signal\ndef callback():\n    signal.raise_signal(signal.SIGTERM)\n    return 'went on'\n",
+                 "/site-packages/llvmlite/binding/fake.py", "exec"), fake)
+    before = signal.getsignal(signal.SIGTERM)
+    t0 = time.perf_counter()
+    with pytest.raises(_Terminated):
+        with _sigterm_as_interrupt():
+            assert fake["callback"]() == "went on"           # not raised inside the "callback"
+            time.sleep(5.0)                                 # the resent signal lands here
+    assert 0.2 < time.perf_counter() - t0 < 3.0
+    assert signal.getsignal(signal.SIGTERM) is before     # the handler is restored
