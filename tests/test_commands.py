@@ -332,8 +332,11 @@ def test_compare_ends_on_sigterm_with_one_line(workers):
     assert p.returncode == 143, (p.returncode, err)
     assert err.strip().splitlines() == ["bsrflow compare: interrupted by SIGTERM"], err
     time.sleep(1.0)
-    left = subprocess.run(["pgrep", "-f", f"{sys.executable}.*multiprocessing"], capture_output=True, text=True)
-    assert left.stdout.split() == [], left.stdout
+    # the command's session (start_new_session: its id is p.pid): no worker of it is left (other
+    # tests' lingering processes do not count)
+    ps = subprocess.run(["ps", "-o", "pid=,stat=,args=", "-s", str(p.pid)], capture_output=True, text=True)
+    left = [line for line in ps.stdout.splitlines() if line.split()[1][0] != "Z"]   # zombies wait for init
+    assert left == [], left
 
 
 def test_an_interrupted_packing_compare_keeps_its_finished_runs(tmp_path, monkeypatch, capsys):
@@ -423,9 +426,11 @@ def test_compare_bed_shows_progress_and_keeps_its_finished_runs_on_sigterm(tmp_p
     assert abs(data["cases"][0]["flight_time_rel_diff"] + 0.0686) < 5e-4
 
 
-def test_a_signal_during_numbas_compile_is_sent_again_not_swallowed():
+@pytest.mark.parametrize("where", ["/site-packages/llvmlite/binding/fake.py", "/usr/lib/python3.11/weakref.py"])
+def test_a_signal_during_numbas_compile_is_sent_again_not_swallowed(where):
     """A SIGTERM that arrives in llvmlite's Python code (numba compiling, where a ctypes callback
-    would swallow the exception with an "Exception ignored" traceback) is not raised there: it is
+    would swallow the exception with an "Exception ignored" traceback; or in a weakref callback of the
+    garbage collector) is not raised there: it is
     recorded and sent again 0.25 s later, and raises once the program is back in ordinary code."""
     import signal
     import time
@@ -433,7 +438,7 @@ def test_a_signal_during_numbas_compile_is_sent_again_not_swallowed():
     from bsrflow.io.commands import _sigterm_as_interrupt, _Terminated
     fake = {}
     exec(compile("import signal\ndef callback():\n    signal.raise_signal(signal.SIGTERM)\n    return 'went on'\n",
-                 "/site-packages/llvmlite/binding/fake.py", "exec"), fake)
+                 where, "exec"), fake)
     before = signal.getsignal(signal.SIGTERM)
     t0 = time.perf_counter()
     with pytest.raises(_Terminated):
@@ -442,3 +447,62 @@ def test_a_signal_during_numbas_compile_is_sent_again_not_swallowed():
             time.sleep(5.0)                                 # the resent signal lands here
     assert 0.2 < time.perf_counter() - t0 < 3.0
     assert signal.getsignal(signal.SIGTERM) is before     # the handler is restored
+
+
+SEED_TOML = "[run]\nt_end = 0.02\nsave_every = 0.01\n"
+PACKING_TOML = '[model]\nkernel = "packing"\n' + SEED_TOML
+LAYER_TOML = '[layer]\nkind = "tapped_layer"\ndim = 2\nt_end = 0.02\nsave_every = 0.01\n'
+
+
+@pytest.mark.parametrize("argv, rc, text", [
+    (["run", "{seed}", "--set", "d=5"], 2, "tap.a_over_d: 0.75 is outside the valid range [0, 0.4673]"),
+    (["run", "{seed}", "--out", "{tmp}/a.nc", "--ou", "{tmp}/b.nc"], 2, "unrecognized arguments: --ou"),
+    (["run", "{seed}", "--out", "{seed}.nc", ], 0, None),
+    (["run", "{seed}", "--set", "e=0.5"], 2, "--set column.restitution: the seed kernel's continuum does not use it"),
+    (["run", "{packing}", "--scheme", "seed"], 2, "--scheme: the scheme preset is an option of the seed kernel only"),
+    (["run", "{layer}", "--set", "bottom_density=1e308"], 2, "bottom_density = 1e+308 is outside the valid range"),
+    (["run", "{layer}", "--set", "gravity=1e300"], 2, "gravity = 1e+300 is outside the valid range [0.001, 10000]"),
+    (["sweep", "{seed}", "--param", "e=0.3,0.9", "--out", "{tmp}/s.nc"], 2, "--param restitution: the seed kernel"),
+    (["compare", "--diameter", "1e-6"], 2, "the DEM would take 4.79e+12 steps"),
+    (["compare", "--diameter", "5"], 3, "the DEM column (d = 5 m, a/d = 0.75) stopped: an overlap reached"),
+    (["compare", "--scheme", "foo"], 2, "error: --scheme 'foo' is not one of"),
+    (["compare-bed", "--reference", "{tmp}/ref", "--json", "{tmp}/ref/params.json"], 2, "is inside --reference"),
+])
+def test_inputs_found_by_the_robustness_review(argv, rc, text, tmp_path, capsys):
+    """Inputs a review (2026-12-03) found to give a traceback (d = 5 m), to be silently ignored
+    (an abbreviated option given twice, e for the seed kernel, --scheme for the packing kernel), an
+    infinite output (bottom_density), an unstoppable run (d = 1e-6 m) or an input overwritten
+    (compare-bed's reference): one line, exit 2 (3 for a DEM that stops), nothing written."""
+    import shutil
+    from pathlib import Path
+    for name, text_ in (("seed", SEED_TOML), ("packing", PACKING_TOML), ("layer", LAYER_TOML)):
+        (tmp_path / f"{name}.toml").write_text(text_)
+    if "{tmp}/ref" in " ".join(argv):
+        shutil.copytree(Path(__file__).parent.parent / "reference" / "liggghts_bed", tmp_path / "ref",
+                        ignore=shutil.ignore_patterns("results", "work"))
+    before = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
+    argv = [a.replace("{seed}", str(tmp_path / "seed.toml")).replace("{packing}", str(tmp_path / "packing.toml"))
+            .replace("{layer}", str(tmp_path / "layer.toml")).replace("{tmp}", str(tmp_path)) for a in argv]
+    if text is None:                                  # the control: a valid run of the same config
+        assert main(argv + ["--quiet"]) == 0
+        return
+    try:
+        got = main(argv)
+    except SystemExit as exc:                         # argparse's own refusals
+        got = exc.code
+    assert got == rc
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and text in err[0], err
+    assert all(p.read_bytes() == b for p, b in before.items())      # no input overwritten
+    assert not list(tmp_path.glob("*.nc"))
+
+
+def test_a_checkpoint_that_would_overwrite_the_config_is_refused(tmp_path, capsys):
+    """`bsrflow run c.nc.ckpt --out c.nc`: the checkpoint <out>.ckpt would overwrite the config (and
+    the finished run delete it); refused in one line, exit 2, the config untouched."""
+    cfg = tmp_path / "c.nc.ckpt"
+    cfg.write_text(SEED_TOML)
+    assert main(["run", str(cfg), "--out", str(tmp_path / "c.nc")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "is the config file itself" in err[0] and "checkpoint" in err[0], err
+    assert cfg.read_text() == SEED_TOML

@@ -107,3 +107,21 @@ def test_compare_dump_on_the_real_liggghts_dump(tmp_path, capsys):
     assert case["dem"]["top_max_over_d"] == pytest.approx(SUMMARY["cases"]["d22mm_a0.75"]["top_max_over_d"],
                                                           abs=1e-9)
     assert abs(case["top_max_rel_diff"]) < 0.05 and case["mass_centre_rms_over_d"] < 0.5
+
+
+@pytest.mark.parametrize("extra, text", [(["--set", "checkpoint_every=0.01"], "--set checkpoint_every"),
+                                         (["--set", "run.write_state=true"], "--set run.write_state"),
+                                         (["--config", "CFG"], "run.checkpoint_every in ")])
+def test_compare_dump_refuses_the_run_only_options(extra, text, tmp_path, capsys):
+    """compare-dump writes no checkpoints and no netCDF file: `checkpoint_every` and `write_state`
+    (as --set or in its config) are refused in one line, exit 2, before the run (they were ignored)."""
+    from bsrflow.cli import main
+    cfg = tmp_path / "c.toml"
+    cfg.write_text('[model]\nkernel = "packing"\n[run]\ncheckpoint_every = 0.01\n')
+    extra = [str(cfg) if a == "CFG" else a for a in extra]
+    out = tmp_path / "cd.json"
+    assert main(["compare-dump", str(REF / "results" / "d22mm_a0.75.dump.gz"), "--dt", "1e-5",
+                 "--kernel", "packing", "--a-over-d", "0.75", "--json", str(out)] + extra) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and text in err[0] and "writes no checkpoints" in err[0], err
+    assert not out.exists()

@@ -54,6 +54,11 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMAND_MODULES:
         importlib.import_module(name).add_parser(sub)
+    for command_parser in sub.choices.values():
+        # no abbreviated options: `--ou b.nc` after `--out a.nc` would set --out twice past the
+        # "given twice" check (argparse keeps the last), and an abbreviation that a later option
+        # makes ambiguous would break scripts
+        command_parser.allow_abbrev = False
     return parser
 
 

@@ -49,7 +49,11 @@ def run_dem_column(setup: ColumnSetup):
     from ..physics.dem import DEMColumn, run_dem
     col = DEMColumn(n_spheres=setup.n_spheres, diameter=setup.diameter, density=setup.density,
                     stiffness=setup.stiffness, restitution=setup.restitution, gravity=setup.gravity)
-    res = run_dem(col, setup.motion(), setup.t_end, sample_interval=setup.save_every)
+    try:
+        res = run_dem(col, setup.motion(), setup.t_end, sample_interval=setup.save_every)
+    except RuntimeError as exc:                       # spheres passed through each other: a stop, one line
+        raise SimulationError(f"the DEM column (d = {setup.diameter:g} m, a/d = {setup.a_over_d:g}) stopped: {exc}",
+                              None, float("nan"), float("nan"), "stopped") from None
     return np.asarray(res.t), np.asarray(res.positions), np.asarray(res.floor)
 
 
@@ -405,7 +409,10 @@ def _command(args) -> int:
         kw["points_per_diameter"] = args.ppd
     base = _setup_from_options(**kw)
     from ..numerics.solver import Scheme
-    Scheme.preset(args.scheme)                     # an unknown preset is refused before the DEM runs
+    try:
+        Scheme.preset(args.scheme)                 # an unknown preset is refused before the DEM runs
+    except ValueError as exc:
+        raise ValueError(f"--scheme {str(exc).removeprefix('scheme = ')}") from None
     if args.command == "demo":
         check_output_dir(args.out, "--out", create=True)
         json_path = check_output_file(os.path.join(args.out, "compare.json"), "--out")

@@ -341,6 +341,11 @@ def _main(args) -> int:
     from ..io.paths import check_distinct, check_output_dir, check_output_file
 
     check_distinct(("--reference", args.reference), ("--json", args.json), ("--figures", args.figures))
+    inside = os.path.realpath(args.reference) + os.sep
+    for opt, path in (("--json", args.json), ("--figures", args.figures)):
+        if path is not None and os.path.realpath(path).startswith(inside):
+            raise ValueError(f"{opt} {path} is inside --reference {args.reference} (the LIGGGHTS data, an input); "
+                             "write it elsewhere")
     if args.json is not None:
         check_output_file(args.json, "--json")
     ref = Path(args.reference)

@@ -79,10 +79,15 @@ _RESEND = {"timer": None, "resent": False, "raised": False, "lock": threading.Lo
 RESEND_DELAY_S = 0.25
 
 
-def _in_ctypes_callback(frame) -> bool:
-    """True when the signal arrived in llvmlite's Python code (numba compiling): an exception
-    raised there may be inside a ctypes callback, which swallows it."""
-    return frame is not None and "llvmlite" in frame.f_code.co_filename
+def _in_swallowing_callback(frame) -> bool:
+    """True when the signal arrived where an exception may be swallowed (printed as "Exception
+    ignored in ..." with a traceback, and the program goes on): llvmlite's Python code (numba
+    compiling; its ctypes callbacks), a weakref callback (weakref.py, called by the garbage
+    collector: seen in a review, 3 of 16 SIGTERMs to a running `bsrflow run`), a ``__del__``."""
+    if frame is None:
+        return False
+    code = frame.f_code
+    return "llvmlite" in code.co_filename or code.co_filename.endswith("weakref.py") or code.co_name == "__del__"
 
 
 def _resend_later(signum) -> None:
@@ -138,7 +143,7 @@ def _sigterm_as_interrupt():
                     return                  # the resent copy of a signal raised meanwhile
             if signum not in _PENDING_SIGNALS:
                 _PENDING_SIGNALS.append(signum)
-        if _in_ctypes_callback(frame):
+        if _in_swallowing_callback(frame):
             _resend_later(signum)           # not raised here: the callback would swallow it
             return
         _mark_raised()
@@ -196,6 +201,20 @@ def _progress_bar(total, show_bar):
     return progress, close
 
 
+def _output_path(args) -> str:
+    """``--out`` (default: CONFIG with the suffix .nc), refused when it or its checkpoint
+    ``<out>.ckpt`` is the config file itself (the run would overwrite its own config)."""
+    from .checkpoint import checkpoint_path
+    out = args.out if args.out is not None else os.path.splitext(args.config)[0] + ".nc"
+    config = os.path.realpath(args.config)
+    if os.path.realpath(out) == config:
+        raise ConfigError("--out", f"{out} is the config file itself; give another file name (e.g. .nc)")
+    if os.path.realpath(checkpoint_path(out)) == config:
+        raise ConfigError("--out", f"the checkpoint file {checkpoint_path(out)} of this output is the config file "
+                                   "itself; give another file name")
+    return out
+
+
 def _run_layer(args) -> int:
     """`bsrflow run` of a 2-D / 3-D layer config (a [layer] table; :mod:`bsrflow.io.layer_runner`)."""
     from .layer_runner import load_layer_config, run_layer_config
@@ -204,9 +223,7 @@ def _run_layer(args) -> int:
         raise ConfigError("--scheme", "is an option of column configs; for a layer use --set layer.scheme=NAME "
                           "(tapped_layer, vibrated_box)")
     cfg = load_layer_config(args.config, args.set)
-    out = args.out if args.out is not None else os.path.splitext(args.config)[0] + ".nc"
-    if os.path.abspath(out) == os.path.abspath(args.config):
-        raise ConfigError("--out", f"{out} is the config file itself; give another file name (e.g. .nc)")
+    out = _output_path(args)
     progress, close = _progress_bar(cfg.setup.t_end, not args.quiet and sys.stderr.isatty())
 
     def log(msg):
@@ -242,9 +259,15 @@ def _run(args) -> int:
         overrides["numerics.scheme"] = args.scheme
     if overrides:
         config = config.with_overrides(overrides)
-    out = args.out if args.out is not None else os.path.splitext(args.config)[0] + ".nc"
-    if os.path.abspath(out) == os.path.abspath(args.config):
-        raise ConfigError("--out", f"{out} is the config file itself; give another file name (e.g. .nc)")
+    if config["model.kernel"] == "seed" and "column.restitution" in overrides:
+        raise ConfigError("--set column.restitution", "the seed kernel's continuum does not use it (its "
+                          "dissipation is column.kernel_dissipation; e is the DEM's and the packing law's): leave it out")
+    if config["model.kernel"] == "packing":
+        given = "--scheme" if args.scheme else next((f"--set {k}" for k in overrides if k == "numerics.scheme"), None)
+        if given:
+            raise ConfigError(given, "the scheme preset is an option of the seed kernel only; the packing "
+                              "continuum has its own discretisation (numerics.formulation): leave it out")
+    out = _output_path(args)
     quiet = bool(args.quiet)
     progress, close_bar = _progress_bar(config.run.t_end, not quiet and sys.stderr.isatty())
 

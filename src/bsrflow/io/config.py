@@ -132,7 +132,7 @@ FIELDS: tuple[_Field, ...] = (
     _Field("column", "stiffness", "float", 1.366e7, "contact stiffness K (DEM loading; the kernel's K)",
            "N/m", 1e-3, 1e12),
     _Field("column", "restitution", "float", 0.9, "coefficient of restitution e of the DEM contacts "
-           "(and of the packing law)", "", 0.01, 1),
+           "(and of the packing law; the seed kernel's continuum does not use it)", "", 0.01, 1),
     _Field("column", "m0", "float", 406.0,
            "continuum characteristic mass m0 of the kernel, lambda = K/(m m0); default " + _CAL,
            "kg", 1e-12, 1e12),
@@ -592,15 +592,16 @@ class Config:
         launch = 3.0 * setup.amplitude * setup.omega if v["tap.n_taps"] > 0 else 0.0
         c0 = setup.sound_speed()
         vmax = math.sqrt(max(0.0, 2.0 * g * (_MAX_HEIGHT - (v["column.n_spheres"] + 3) * d)))
-        if 2.0 * c0 >= launch:
-            c_ok = max((vmax - launch) / 2.0, 1e-300)
+        if 2.0 * c0 >= launch and vmax > launch:
+            c_ok = (vmax - launch) / 2.0
             m0_min = v["column.stiffness"] * d * d / (3.0 * c_ok * c_ok)
             rng = f"[{m0_min:.4g}, 1e+12] kg"
             return ConfigError("column.m0", f"{v['column.m0']!r} is outside the valid range {rng} here: "
                                f"the kernel's sound speed c0 = sqrt(K d^2/(3 m0)) = {c0:.4g} m/s makes the "
                                f"energy-bound domain {H:.4g} m tall (at most {_MAX_HEIGHT:g} m)",
                                v["column.m0"], rng)
-        a_max = max(vmax - 2.0 * c0, 0.0) / (3.0 * setup.omega) / d
+        # the launch alone exceeds the domain's energy bound: no m0 helps, the tap must be smaller
+        a_max = (vmax if vmax <= launch else max(vmax - 2.0 * c0, 0.0)) / (3.0 * setup.omega) / d
         rng = f"[0, {a_max:.4g}]"
         return ConfigError("tap.a_over_d", f"{v['tap.a_over_d']!r} is outside the valid range {rng} here: "
                            f"the launch speed 3 a w = {launch:.4g} m/s makes the energy-bound domain "

@@ -189,9 +189,11 @@ class LayerSetup:
             raise ValueError(f"dim = {self.dim!r} is outside the valid range {{2, 3}}")
         if not isinstance(self.positivity, (bool, np.bool_)):
             raise ValueError(f"positivity = {self.positivity!r} must be True or False")
+        if not (1e-6 <= self.bottom_density <= 1e6):        # NaN fails too
+            raise ValueError(f"bottom_density = {self.bottom_density!r} is outside the valid range [1e-06, 1e+06] "
+                             "kg/m^n")
         for name, v in (("box_width", self.box_width), ("layer_height", self.layer_height),
-                        ("diameter", self.diameter), ("bottom_density", self.bottom_density),
-                        ("t_end", self.t_end),
+                        ("diameter", self.diameter), ("t_end", self.t_end),
                         ("save_every", self.save_every)):
             if not (np.isfinite(v) and v > 0):
                 raise ValueError(f"{name} = {v!r} is outside the valid range (0, inf)")
@@ -200,8 +202,8 @@ class LayerSetup:
                              "integers >= 2")
         if not (0.0 <= self.dissipation < 1.0):
             raise ValueError(f"dissipation = {self.dissipation!r} is outside the valid range [0, 1)")
-        if not (np.isfinite(self.gravity) and self.gravity > 0):
-            raise ValueError(f"gravity = {self.gravity!r} is outside the valid range (0, inf) m/s^2")
+        if not (1e-3 <= self.gravity <= 1e4):                # the column's range; NaN fails too
+            raise ValueError(f"gravity = {self.gravity!r} is outside the valid range [0.001, 10000] m/s^2")
         if self.sides not in ("wall", "periodic"):
             raise ValueError(f"sides = {self.sides!r} is not one of ('wall', 'periodic')")
         if self.scheme != "seed":

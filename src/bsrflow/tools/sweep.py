@@ -529,6 +529,11 @@ def _main(args) -> int:
         source = source.with_fixed(fixed)
     n = int(np.prod([len(v) for v in params.values()]))
     check_cases(params, source)                        # every case, before any cluster starts
+    swept = {canonical_name(n) for n in params}
+    if "restitution" in swept and not swept & {"kernel", "kernel_name"}:
+        if source.column_setup({}).kernel_name == "seed":
+            raise ValueError("--param restitution: the seed kernel's continuum does not use it (its dissipation is "
+                             "kernel_dissipation; e is the DEM's and the packing law's): sweep kernel_dissipation")
     if args.scheduler:
         check_scheduler(args.scheduler)
     where = args.scheduler or f"a LocalCluster of {workers} worker processes"
