@@ -245,6 +245,7 @@ class LagrangianPacking(_Base):
 
     def advance(self, t, t_stop):
         law = self.law
+        t_start = t
         self.counters[1:] = 0
         if self.weights is None:
             t = pk.lagrangian_advance(self.x, self.v, self.hist, float(t), float(t_stop), self.dt_max, self.mu,
@@ -261,8 +262,9 @@ class LagrangianPacking(_Base):
             raise PackingError(f"material points crossed (a bond length reached 0) at t = {t:.6g} s, near x = "
                                f"{self.x[i]:.4g} m (point {i} of {self.x.size}, floor frame)", t, float(self.x[i]))
         if self.x[-1] > self.grid.upper - self.law.diameter:
-            raise PackingError(f"material reached the top of the domain at t = {t:.6g} s, "
-                               f"x = {self.x[-1]:.4g} m", t, float(self.x[-1]))
+            # checked once per call (a save interval), not per step: say so, with the interval
+            raise PackingError(f"material reached the top of the domain between t = {t_start:.6g} and {t:.6g} s "
+                               f"(checked at every save), x = {self.x[-1]:.4g} m", t, float(self.x[-1]))
         return t
 
     def cumulative_mass(self):
