@@ -506,3 +506,12 @@ def test_a_checkpoint_that_would_overwrite_the_config_is_refused(tmp_path, capsy
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "is the config file itself" in err[0] and "checkpoint" in err[0], err
     assert cfg.read_text() == SEED_TOML
+
+
+def test_no_command_is_one_line_on_stderr(capsys):
+    """`bsrflow` alone: one line on stderr naming what is missing, exit 2 (it printed the whole
+    help on stdout)."""
+    assert main([]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err.strip().splitlines() == ["bsrflow: error: a COMMAND is required; `bsrflow --help` "
+                                                       "lists them"]

@@ -96,7 +96,7 @@ def _main(argv) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
-        parser.print_help()
+        print("bsrflow: error: a COMMAND is required; `bsrflow --help` lists them", file=sys.stderr)
         return 2
     twice = _given_twice(parser, argv)
     if twice:
