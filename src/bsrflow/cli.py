@@ -87,12 +87,17 @@ def main(argv=None) -> int:
         return _main(argv)
 
 
+def _interrupted(prefix, exc) -> int:
+    """One line for a Ctrl-C / SIGTERM (its message, or what it was), and its exit code."""
+    print(f"{prefix}: {' '.join(str(exc).split()) or 'interrupted by Ctrl-C (SIGINT)'}", file=sys.stderr)
+    return int(getattr(exc, "exit_code", 130))
+
+
 def _main(argv) -> int:
     try:
         parser = build_parser()
     except KeyboardInterrupt as exc:
-        print(f"bsrflow: {' '.join(str(exc).split()) or 'interrupted'}", file=sys.stderr)
-        return int(getattr(exc, "exit_code", 130))
+        return _interrupted("bsrflow", exc)
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
@@ -113,10 +118,8 @@ def _main(argv) -> int:
         print(f"bsrflow {args.command}: error: {msg}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as exc:
-        # bsrflow.io.runner.run_config puts what was kept and whether --resume can continue
-        msg = " ".join(str(exc).split()) or "interrupted"
-        print(f"bsrflow {args.command}: {msg}", file=sys.stderr)
-        return int(getattr(exc, "exit_code", 130))
+        # the commands put what was kept (and for a run whether --resume can continue)
+        return _interrupted(f"bsrflow {args.command}", exc)
     except BrokenPipeError:
         # the reader of the standard output went away (``bsrflow ... | head``): stop quietly with
         # the shell's code for SIGPIPE, as Unix tools do; stdout goes to /dev/null so that the

@@ -382,19 +382,8 @@ def _log(msg) -> None:
 
 
 def _main(args) -> int:
-    """`bsrflow compare` / `demo`: SIGTERM ends it as Ctrl-C does (one line, exit 143 / 130), and a
-    signal numba swallowed while compiling takes effect at the next progress line."""
-    from ..io.commands import _sigterm_as_interrupt
-    try:
-        with _sigterm_as_interrupt():
-            return _command(args)
-    except KeyboardInterrupt as exc:
-        if not str(exc):
-            exc.args = ("interrupted by Ctrl-C (SIGINT)",)
-        raise
-
-
-def _command(args) -> int:
+    """`bsrflow compare` / `demo` (SIGTERM and Ctrl-C: :func:`bsrflow.cli.main`; a signal numba
+    swallowed while compiling takes effect at the next progress line, :func:`_log`)."""
     if getattr(args, "kernel", "seed") not in ("seed", "packing"):
         raise ValueError(f"--kernel = {args.kernel!r} is not one of seed, packing")
     if getattr(args, "kernel", "seed") == "packing":

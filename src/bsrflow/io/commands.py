@@ -231,8 +231,7 @@ def _run_layer(args) -> int:
             print(f"bsrflow run: {msg}", flush=True)
 
     try:
-        with _sigterm_as_interrupt():
-            outcome = run_layer_config(cfg, out, resume=args.resume, progress=progress, log=log)
+        outcome = run_layer_config(cfg, out, resume=args.resume, progress=progress, log=log)
     finally:
         close()
     if not args.quiet:
@@ -276,8 +275,7 @@ def _run(args) -> int:
             print(f"bsrflow run: {msg}", flush=True)
 
     try:
-        with _sigterm_as_interrupt():
-            outcome = run_config(config, out, resume=args.resume, progress=progress, log=log)
+        outcome = run_config(config, out, resume=args.resume, progress=progress, log=log)
     finally:
         close_bar()
     if not quiet:

@@ -547,10 +547,8 @@ def _main(args) -> int:
     print(f"bsrflow sweep: {n} case(s){model} over {', '.join(params)} on {where}"
           + (f"; config {args.config} ({'bsrflow.io.config' if source.uses_config_module else 'fallback reader'})"
              if args.config else ""))
-    from ..io.commands import _sigterm_as_interrupt
-    try:
-        with _sigterm_as_interrupt():
-            ds = run_sweep(params, source, scheduler=args.scheduler, n_workers=workers)
+    try:                                     # SIGTERM raises as Ctrl-C does: bsrflow.cli.main
+        ds = run_sweep(params, source, scheduler=args.scheduler, n_workers=workers)
     except KeyboardInterrupt as exc:
         partial = getattr(exc, "partial", None)
         how = "by SIGTERM" if getattr(exc, "signal_name", "") == "SIGTERM" else "by Ctrl-C (SIGINT)"
