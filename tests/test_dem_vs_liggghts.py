@@ -111,7 +111,7 @@ def test_compare_dump_on_the_real_liggghts_dump(tmp_path, capsys):
 
 @pytest.mark.parametrize("extra, text", [(["--set", "checkpoint_every=0.01"], "--set checkpoint_every"),
                                          (["--set", "run.write_state=true"], "--set run.write_state"),
-                                         (["--config", "CFG"], "run.checkpoint_every in ")])
+                                         (["--config", "CFG"], "run.checkpoint_every = 0.01 in ")])
 def test_compare_dump_refuses_the_run_only_options(extra, text, tmp_path, capsys):
     """compare-dump writes no checkpoints and no netCDF file: `checkpoint_every` and `write_state`
     (as --set or in its config) are refused in one line, exit 2, before the run (they were ignored)."""

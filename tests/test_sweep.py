@@ -351,7 +351,7 @@ def test_sweep_refuses_checkpoint_every_from_its_config_file(tmp_path, capsys):
     out = tmp_path / "sw.nc"
     assert main(["sweep", str(cfg), "--param", "tap.a_over_d=0.5,1.0", "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and f"run.checkpoint_every in {cfg}" in err[0] and "no checkpoints" in err[0], err
+    assert len(err) == 1 and f"run.checkpoint_every = 0.01 in {cfg}" in err[0] and "no checkpoints" in err[0], err
     assert not out.exists()
     assert main(["sweep", str(cfg), "--param", "tap.a_over_d=0.5,1.0", "--set", "run.checkpoint_every=0.02",
                  "--out", str(out)]) == 2

@@ -278,7 +278,7 @@ def _main(args) -> int:
     if args.types:
         dump = dump.select(args.types)
     check_dump(dump, args.axis, args.time_offset, what_axis="--axis")
-    from ..tools.setup_source import canonical_name, check_given_once
+    from ..tools.setup_source import canonical_name, check_given_once, check_no_run_outputs
     overrides = {}
     for item in args.set:
         key, sep, value = item.partition("=")
@@ -286,10 +286,7 @@ def _main(args) -> int:
             raise ValueError(f"--set {item!r} is not NAME=VALUE")
         overrides[key.strip()] = parse_value(value)
     set_as = check_given_once(("--set", item.strip()) for item in args.set)
-    for key in overrides:
-        if key.split(".")[-1] in ("checkpoint_every", "write_state"):
-            raise ValueError(f"--set {key}: compare-dump writes no checkpoints and no netCDF file (an option of "
-                             "`bsrflow run`); leave it out")
+    check_no_run_outputs("compare-dump writes", [("--set", key) for key in overrides])
     for opt, fld, _typ, _h in _SETUP_OPTIONS:
         v = getattr(args, fld)
         if v is not None:
@@ -308,11 +305,7 @@ def _main(args) -> int:
         overrides["t_end"] = float(dump.t[-1] - args.time_offset)
     source = SetupSource.load(args.config)
     source.check_names(overrides)
-    config = getattr(source, "config", None)
-    if config is not None and (config["run.checkpoint_every"] is not None or config["run.write_state"]):
-        key = "run.checkpoint_every" if config["run.checkpoint_every"] is not None else "run.write_state"
-        raise ValueError(f"{key} in {args.config}: compare-dump writes no checkpoints and no netCDF file (an option "
-                         "of `bsrflow run`); remove it")
+    check_no_run_outputs("compare-dump writes", (), getattr(source, "config", None), args.config)
     seed_only = ("m0", "kernel_dissipation", "scheme", "stepper", "rtol", "atol")
     seed_given = [opt for opt, fld, _t, _h in _SETUP_OPTIONS if fld in seed_only and getattr(args, fld) is not None]
     seed_given += [f"--set {k}" for k in (item.partition("=")[0].strip() for item in args.set)

@@ -22,8 +22,8 @@ from dataclasses import dataclass, field
 
 from ..physics.column import ColumnSetup
 
-__all__ = ["ALIASES", "PARAMETER_INFO", "SetupSource", "canonical_name", "check_given_once", "coerce_value",
-           "parameter_info", "parse_value", "config_module"]
+__all__ = ["ALIASES", "PARAMETER_INFO", "SetupSource", "canonical_name", "check_given_once", "check_no_run_outputs",
+           "coerce_value", "parameter_info", "parse_value", "config_module"]
 
 ALIASES = {"f": "frequency", "d": "diameter", "N": "n_spheres", "ppd": "points_per_diameter",
            "eps": "kernel_dissipation", "e": "restitution", "K": "stiffness", "g": "gravity", "taps": "n_taps",
@@ -67,6 +67,26 @@ def canonical_name(name: str) -> str:
     (``tap.frequency``) dropped; unknown names are returned unchanged."""
     leaf = name.rsplit(".", 1)[-1]
     return ALIASES.get(leaf, leaf)
+
+
+RUN_OUTPUT_KEYS = ("run.checkpoint_every", "run.write_state")
+"""Config keys of `bsrflow run`'s files (checkpoints, the state in the netCDF file)."""
+
+
+def check_no_run_outputs(who: str, named, config=None, config_path=None) -> None:
+    """Refuse the options of `bsrflow run`'s files in a command that writes neither checkpoints nor
+    a netCDF file (``who``: e.g. "sweep cases write"): ``named`` are (option, key) pairs of the
+    command line (``--set run.write_state``, ``--param checkpoint_every``), ``config`` the
+    command's :class:`bsrflow.io.config.Config` (or None), whose own values are refused too."""
+    why = f"{who} no checkpoints and no netCDF files (options of `bsrflow run`)"
+    for opt, key in named:
+        if key.split(".")[-1] in [k.split(".")[-1] for k in RUN_OUTPUT_KEYS]:
+            raise ValueError(f"{opt} {key}: {why}; leave it out")
+    for key in RUN_OUTPUT_KEYS if config is not None else ():
+        value = config[key]
+        if value is not None and value is not False:
+            shown = "true" if value is True else repr(value)
+            raise ValueError(f"{key} = {shown} in {config_path}: {why}; remove it")
 
 
 def check_given_once(given, key=canonical_name) -> dict:

@@ -46,7 +46,8 @@ import time
 
 import numpy as np
 
-from .setup_source import SetupSource, canonical_name, check_given_once, coerce_value, parameter_info, parse_value
+from .setup_source import (SetupSource, canonical_name, check_given_once, check_no_run_outputs, coerce_value,
+                           parameter_info, parse_value)
 from ..physics.column import continuum_label
 
 __all__ = ["parse_param", "parse_params", "make_cases", "check_cases", "check_scheduler", "run_case", "run_sweep", "to_dataset", "sweep_figure",
@@ -501,12 +502,9 @@ def _main(args) -> int:
     if not 1 <= workers <= max_workers:
         raise ValueError(f"--workers {workers} is outside the valid range [1, {max_workers}] (4 per CPU of this machine)")
     check_given_once(("--set", item.strip()) for item in args.set)
-    for opt, items in (("--param", args.param), ("--set", args.set)):
-        for item in items:
-            name = item.partition("=")[0].strip()
-            if name.split(".")[-1] in ("checkpoint_every", "write_state"):
-                raise ValueError(f"{opt} {name}: sweep cases write no checkpoints and no netCDF files (an option "
-                                 "of `bsrflow run`); leave it out")
+    check_no_run_outputs("sweep cases write", [(opt, item.partition("=")[0].strip())
+                                               for opt, items in (("--param", args.param), ("--set", args.set))
+                                               for item in items])
     params = parse_params(args.param)
     fixed = {}
     for item in args.set:
@@ -519,12 +517,7 @@ def _main(args) -> int:
         fixed[key] = coerce_value(key, parse_value(value))
     source = SetupSource.load(args.config)
     config = getattr(source, "config", None)
-    if config is not None and config["run.write_state"]:
-        raise ValueError(f"run.write_state = true in {args.config}: sweep cases write no netCDF files (an option of "
-                         "`bsrflow run`); remove it")
-    if config is not None and config["run.checkpoint_every"] is not None:
-        raise ValueError(f"run.checkpoint_every in {args.config}: sweep cases write no checkpoints (an option of "
-                         "`bsrflow run`); remove it")
+    check_no_run_outputs("sweep cases write", (), config, args.config)
     if fixed:
         source = source.with_fixed(fixed)
     n = int(np.prod([len(v) for v in params.values()]))
