@@ -171,7 +171,7 @@ def test_a_monitor_stop_records_the_steps_to_the_stop(tmp_path, capsys):
     the last checkpoint); a seed column stopped so has its steps too."""
     import re
     cfg = tmp_path / "l.toml"
-    cfg.write_text('[layer]\nkind = "tapped_layer"\ndim = 2\namplitude = 0.05\nfrequency = 50.0\ndissipation = 0.0\n'
+    cfg.write_text('[layer]\nkind = "tapped_layer"\ndim = 2\nbox_width = 0.012\namplitude = 0.05\nfrequency = 50.0\ndissipation = 0.0\n'
                    'positivity = false\nsettle_time = 0.012\nt_end = 0.05\nsave_every = 0.005\n'
                    '[output]\ncheckpoint_every = 0.005\n')
     assert main(["run", str(cfg), "--out", str(tmp_path / "l.nc"), "--quiet"]) == 3

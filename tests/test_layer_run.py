@@ -81,6 +81,14 @@ def test_layer_config_runs_into_netcdf_and_vtk(tmp_path, run_layer_file):
     ("[layer]\nn_taps = 3\ntap_period = 0.001\n", "layer.tap_period"),
     ("[layer]\nscheme = 'accurate'\n", "layer.scheme"),
     ("[layer]\nkind = 'packing_bed'\nrestitution = 0.001\n", "layer.restitution"),
+    # a third review (2026-12-03): "cannot convert float infinity to integer", an errno tuple, no key
+    ("[layer]\ndim = 2\nfrequency = 1e300\n", "layer.frequency: frequency = 1e+300 is outside the valid range"),
+    ("[layer]\nkind = 'vibrated_box'\ndim = 2\nfrequency = 1e-4\n", "layer.frequency"),
+    ("[layer]\nkind = 'packing_bed'\nfrequency = 1e300\n", "layer.frequency"),
+    ("[layer]\nkind = 'packing_bed'\ngamma = 1e300\n", "layer.gamma: 1e+300 gives the floor"),
+    ("[layer]\nkind = 'vibrated_box'\ndim = 2\namplitude = 1e300\n", "layer.amplitude"),
+    ("[layer]\ndim = 2\naverage = 'foo'\n", "layer.average"),
+    ("[layer]\ndim = 2\ndomain_height = 0.001\n", "layer.domain_height: domain_height = 0.001 m is outside"),
 ])
 def test_bad_layer_configs_exit_2_with_one_line(text, field, tmp_path, capsys):
     cfg = tmp_path / "bad.toml"

@@ -170,10 +170,12 @@ def test_compare_on_worker_processes_gives_the_same_numbers(tmp_path):
     serial = compare_packing(base, cases=cases, models=models, log=None)
     parallel = compare_packing(base, cases=cases, models=models, log=None, workers=2)
     assert no_walls(parallel) == no_walls(serial)
-    soft = base.with_(kernel_name="packing", stiffness_factor=1e-9)   # points cross: the monitor stops the run
+    # a tap of 20 d on a contact 1000 times too soft: points cross, the monitor stops the run
+    soft = base.with_(kernel_name="packing", stiffness_factor=1e-3)
+    hard_taps = [dict(case, a_over_d=20.0) for case in cases]
     for workers in (1, 2):
         with pytest.raises(SimulationError, match="case small, lagrangian R=1d: material points crossed") as info:
-            compare_packing(soft, cases=cases, models=models, log=None, workers=workers)
+            compare_packing(soft, cases=hard_taps, models=models, log=None, workers=workers)
         assert info.value.partial["cases"] == []
 
 
@@ -267,3 +269,29 @@ def test_sweep_and_compare_dump_take_packing_configs():
     assert r["status"] == "ok", r
     seed_setup, seed_scheme = SetupSource.load().setup_and_scheme({})
     assert seed_setup.kernel_name == "seed" and seed_scheme is not None
+
+
+@pytest.mark.parametrize("kw, name, why", [
+    (dict(stiffness=100.0), "stiffness", "overlap its bottom contact by 0.597 d"),
+    (dict(stiffness_factor=1e-12), "stiffness_factor", "overlap its bottom contact"),
+    (dict(stiffness=2000.0, stiffness_factor=0.1), "stiffness_factor", "overlap its bottom contact by 0.298 d"),
+    (dict(stiffness=500.0, stiffness_factor=0.5), "stiffness", "(× stiffness_factor 0.5)"),
+    (dict(stiffness=1e12, t_end=100.0), "stiffness", "time steps"),
+    (dict(formulation="lagrangian", restitution=1.0, cfl=0.5), "cfl", "with restitution = 1"),
+])
+def test_packing_column_refuses_a_contact_it_cannot_run_up_front(kw, name, why):
+    """A packing column whose weight alone would overlap its bottom contact by more than 5 % of d
+    (material points crossed later, at run time), one that would need more than 1e9 steps, and
+    the elastic Lagrangian form above its energy-conserving cfl are refused when set up, with
+    the valid range; the ends of the stated stiffness range are accepted."""
+    import re
+    base = dict(kernel_name="packing", formulation="eulerian")
+    base.update(kw)
+    with pytest.raises(ValueError, match=re.escape(why)) as info:
+        ColumnSetup(**base)
+    msg = str(info.value)
+    assert msg.startswith(f"{name} = ") and "valid range" in msg and "\n" not in msg
+    if name != "cfl":
+        lo, hi = (float(v) for v in re.search(r"\[([^,]+), ([^\]]+)\]", msg).groups())
+        for v in (lo * 1.01, hi * 0.99):
+            ColumnSetup(**{**base, name: v})

@@ -554,13 +554,14 @@ def test_resume_refuses_a_checkpoint_of_another_version(tmp_path, capsys):
 
 
 def test_a_packing_run_that_stops_records_its_steps(tmp_path, capsys):
-    """A packing run stopped by its monitor (points crossed at a far too soft contact) exits 3,
-    keeps its snapshots and records its steps (the attribute was missing)."""
+    """A packing run stopped by its monitor (points crossed: a tap of 20 d on a contact 1000
+    times too soft) exits 3, keeps its snapshots and records its steps (the attribute was
+    missing)."""
     cfg_path = tmp_path / "p.toml"
     assert main(["init", str(cfg_path), "--kernel", "packing"]) == 0
     out = tmp_path / "p.nc"
-    argv = ["run", str(cfg_path), "--out", str(out), "--quiet", "--set", "stiffness_factor=1e-9",
-            "--set", "n_spheres=3", "--set", "t_end=0.6"]
+    argv = ["run", str(cfg_path), "--out", str(out), "--quiet", "--set", "stiffness_factor=1e-3",
+            "--set", "a_over_d=20", "--set", "n_spheres=3", "--set", "t_end=0.6"]
     assert main(argv) == 3
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1

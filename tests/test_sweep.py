@@ -41,8 +41,9 @@ def test_parse_ranges_and_lists():
     ("=1,2", "is not NAME="),
     ("a_over_d=1:2", "three fields"),
     ("a_over_d=1:2:3:4", "three fields"),
-    ("a_over_d=1:2:0", "NUM must be an integer >= 1"),
-    ("a_over_d=1:2:2.5", "NUM must be an integer >= 1"),
+    ("a_over_d=1:2:0", r"NUM must be an integer in \[1, 100000\]"),
+    ("a_over_d=1:2:2.5", "NUM must be an integer in"),
+    ("a_over_d=0:1:100000000", "NUM must be an integer in"),      # a review's: minutes without a word
     ("a_over_d=x:2:3", "START and STOP must be numbers"),
     ("a_over_d=1:inf:3", "finite"),
     ("a_over_d=1,,2", "empty value"),
@@ -63,6 +64,8 @@ def test_repeated_names():
         parse_params(["f=1,2", "frequency=3"])
     with pytest.raises(ValueError, match="nothing to sweep"):
         parse_params([])
+    with pytest.raises(ValueError, match=r"would have 1000000 cases \(1000 × 1000\); valid: at most 100000"):
+        parse_params(["a_over_d=0:1:1000", "f=1:2:1000"])
 
 
 def test_command_rejects_bad_input_with_exit_2(capsys):

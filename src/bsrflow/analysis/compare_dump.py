@@ -263,6 +263,9 @@ def _main(args) -> int:
         check_output_dir(args.figures, "--figures")
     if args.dt is not None and not (math.isfinite(args.dt) and args.dt > 0):
         raise ValueError(f"--dt {args.dt!r} is outside the valid range (0, inf) s")
+    for opt, v, unit in (("--floor-offset", args.floor_offset, "m"), ("--time-offset", args.time_offset, "s")):
+        if not math.isfinite(v):
+            raise ValueError(f"{opt} {v!r} is outside the valid range: finite values [{unit}]")
     if args.name is not None and (not args.name.strip() or os.sep in args.name):
         raise ValueError(f"--name {args.name!r}: need a non-empty name without {os.sep!r}")
     dump = read_dump(args.dump, axis=args.axis)
@@ -321,6 +324,11 @@ def _main(args) -> int:
         raise
     if setup.kernel_name == "packing" and seed_given:        # e.g. --scheme seed, which the config allows
         raise ValueError(refusal)
+    if dump.n_atoms != setup.n_spheres:
+        kept = f" of type {', '.join(map(str, args.types))}" if args.types else ""
+        raise ValueError(f"--n-spheres {setup.n_spheres} (the column's n_spheres: this option, --set or the config; "
+                         f"default 20) contradicts the dump's {dump.n_atoms} atoms{kept}: give --n-spheres "
+                         f"{dump.n_atoms}, or select the spheres with --type")
     t_rel = dump.t - args.time_offset
     after = (t_rel >= setup.tap_start - 1e-12) & (t_rel <= setup.t_end + 1e-9 * max(1.0, setup.t_end))
     if after.any():

@@ -152,13 +152,22 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
         msg = str(exc).splitlines()[0]
         field = next((k for k in kw if msg.startswith(k)), None)
         raise ConfigError(f"layer.{field}" if field else "layer", msg) from None
+    height = setup.domain_height or setup.energy_bound_height()
+    if not math.isfinite(height):
+        drive = "gamma" if kind == "packing_bed" else "amplitude"
+        raise ConfigError(f"layer.{drive}", f"{kw.get(drive, getattr(setup, drive))!r} gives the floor a largest speed "
+                          f"of {setup.floor_speed():.3g} m/s and an unbounded domain (the energy bound (3aω)²/(2g)); "
+                          f"valid: a finite floor speed, at most {MAX_LAYER_CELLS:.0e} cells in the grid")
     try:
         cells = int(np.prod(setup.grid().shape))
     except (ValueError, TypeError, OverflowError) as exc:
-        raise ConfigError("layer", str(exc).splitlines()[0]) from None
+        msg = str(exc).splitlines()[0]
+        field = next((k for k in names if msg.startswith(f"{k} = ")), None)
+        raise ConfigError(f"layer.{field}" if field else "layer", msg) from None
     if cells > MAX_LAYER_CELLS:
         raise ConfigError("layer", f"the grid would have {cells:.3g} cells; at most {MAX_LAYER_CELLS:.0e} (reduce the "
-                          "box, the heights or the cells per diameter)")
+                          "box, the heights, the cells per diameter or the floor's speed, which sets the domain height "
+                          "by the energy bound)")
     out = dict(data.get("output", {}))
     for key, value in out.items():
         if key not in _OUTPUT_KEYS:

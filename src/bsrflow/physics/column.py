@@ -50,6 +50,17 @@ this); we take 2.2 cm.  An inference, not a quoted value."""
 
 
 MAX_BONDS = 50_000_000
+STIFFNESS_RANGE = (1e-3, 1e12)
+"""The stiffness K [N/m] a column accepts (a packing column narrows it: :meth:`ColumnSetup._check_packing_stiffness`)."""
+MAX_STATIC_OVERLAP = 0.05
+"""Largest overlap per contact [d] that the packing column's weight may cause at the floor
+(the packing law is a small-overlap law); :meth:`ColumnSetup._check_packing_stiffness`."""
+MAX_PACKING_STEPS = 1.0e9
+"""Largest number of time steps a packing column is allowed (issue #18's runs take at most about
+1e7; a run refused here would take hours)."""
+MAX_CFL_ELASTIC = 0.25
+"""Largest cfl of the Lagrangian packing form with restitution e = 1: at 0.5 its velocity Verlet
+gained 11–14 % energy over a landing (docs/model.md, "The nonlocal interaction")."""
 """Most bonds (histories) a nonlocal column may hold: 400 MB of history."""
 
 DEFAULT_RANGE_OVER_D = 1.0
@@ -114,7 +125,7 @@ class ColumnSetup:
             ("n_spheres", self.n_spheres, 2, 100000, True),
             ("diameter", self.diameter, 1e-6, 10, False),
             ("density", self.density, 1.0, 1e5, False),
-            ("stiffness", self.stiffness, 1e-3, 1e12, False),
+            ("stiffness", self.stiffness, *STIFFNESS_RANGE, False),
             ("m0", self.m0, 1e-12, 1e12, False),
             ("gravity", self.gravity, 1e-3, 1e4, False),
             ("frequency", self.frequency, 1e-3, 1e4, False),
@@ -180,13 +191,62 @@ class ColumnSetup:
                 raise ValueError("cfl is an option of the packing kernel only (the seed kernel's CFL number "
                                  "is the scheme's)")
             lim = 0.5 if self.formulation == "eulerian" else 0.9
+            elastic = self.formulation == "lagrangian" and self.restitution >= 1.0
+            if elastic:
+                lim = MAX_CFL_ELASTIC
             if not (np.isfinite(self.cfl) and 1e-3 <= self.cfl <= lim):
+                why = (" with restitution = 1 (Verlet gains energy where contacts open and close; "
+                       "docs/model.md)" if elastic else "")
                 raise ValueError(f"cfl = {self.cfl!r} is outside the valid range [0.001, {lim}] for the "
-                                 f"{self.formulation} packing formulation")
+                                 f"{self.formulation} packing formulation{why}")
+        if self.kernel_name == "packing":
+            self._check_packing_stiffness()
         need = self.energy_bound_height()
         if self.domain_height is not None and self.domain_height < need:
             raise ValueError(f"domain_height = {self.domain_height!r} m is outside the valid range "
                              f"[{need:.4g}, inf) m: the energy bound predicts flight up to {need:.4g} m")
+
+    def _check_packing_stiffness(self):
+        """The packing law's stiffness in use, K·stiffness_factor, neither so soft that the
+        column's weight N m g overlaps its bottom contact by more than 5 % of d (the packing
+        law is a small-overlap law; much softer, material points cross under the weight) nor so
+        stiff that the run needs more than 1e9 time steps (estimated as t_end c/(cfl d/ppd), c the
+        sound speed at close packing).  ValueError with the valid range at these settings, naming
+        ``stiffness_factor`` where one below 1 is set and another would do, else ``stiffness``."""
+        k_used = self.stiffness * self.stiffness_factor
+        weight = self.n_spheres * self.particle_mass * self.gravity          # stress at the floor [N]
+        overlap = weight / k_used                                             # δ = P/K1 [m]
+        k_min = weight / (MAX_STATIC_OVERLAP * self.diameter)
+        if self.cfl is not None:
+            cfl = self.cfl
+        elif self.formulation == "eulerian":
+            cfl = 0.4
+        else:
+            cfl = 0.25 if self.restitution >= 1.0 else 0.5
+        dx = self.diameter / self.points_per_diameter
+        c_per_root_k = self.diameter / (self.restitution * math.sqrt(self.particle_mass))   # c = d √(K/(e² m))
+        steps = self.t_end * c_per_root_k * math.sqrt(k_used) / (cfl * dx)
+        k_max = (MAX_PACKING_STEPS * cfl * dx / (self.t_end * c_per_root_k)) ** 2
+        if overlap > MAX_STATIC_OVERLAP * self.diameter:
+            problem = (f"the column's weight would overlap its bottom contact by {overlap / self.diameter:.3g} d "
+                       f"(at most {MAX_STATIC_OVERLAP:g} d)")
+        elif steps > MAX_PACKING_STEPS:
+            problem = (f"the run would take about {steps:.2g} time steps (at most {MAX_PACKING_STEPS:.0e}; a "
+                       "stiffness_factor below 1 reduces it)")
+        else:
+            return
+        factor, k = self.stiffness_factor, self.stiffness
+        f_lo, f_hi = k_min / k, min(1.0, k_max / k)
+        if factor != 1.0 and f_lo <= f_hi:            # the factor is what to change
+            raise ValueError(f"stiffness_factor = {factor!r} is outside the valid range at these settings, "
+                             f"[{f_lo:.3g}, {f_hi:.3g}] (stiffness {k:g} N/m): {problem}")
+        lo, hi = max(k_min / factor, STIFFNESS_RANGE[0]), min(k_max / factor, STIFFNESS_RANGE[1])
+        unit = "" if factor == 1.0 else f" (× stiffness_factor {factor:g})"
+        valid = (f"[{lo:.3g}, {hi:.3g}] N/m" if lo <= hi else
+                 f"empty (the weight needs at least {lo:.3g} N/m, the step count at most {hi:.3g} N/m; a shorter "
+                 "t_end or fewer spheres widens it)")
+        raise ValueError(f"stiffness = {k!r} N/m{unit} is outside the valid range at these settings, {valid}: "
+                         f"{problem}")
 
     # derived quantities -----------------------------------------------------------------------
     @property

@@ -35,6 +35,7 @@ The time loop is never touched: both solvers compile the function into their loo
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field
 
 import numba
@@ -45,6 +46,8 @@ __all__ = [
     "Rest",
     "HalfSineTaps",
     "SinusoidalVibration",
+    "FREQUENCY_RANGE",
+    "check_frequency",
 ]
 
 
@@ -206,3 +209,14 @@ def SinusoidalVibration(amplitude: float, frequency: float, start: float = 0.0) 
                       name="sinusoidal_vibration")
     m.amplitude, m.frequency, m.start = amplitude, frequency, start
     return m
+
+
+FREQUENCY_RANGE = (1e-3, 1e4)
+"""The floor's frequency f [Hz] a layer or bed accepts (the tapped column's range)."""
+
+
+def check_frequency(frequency) -> None:
+    """Refuse a floor frequency [Hz] outside :data:`FREQUENCY_RANGE` (ValueError naming it)."""
+    lo, hi = FREQUENCY_RANGE
+    if isinstance(frequency, bool) or not (isinstance(frequency, numbers.Real) and lo <= frequency <= hi):
+        raise ValueError(f"frequency = {frequency!r} is outside the valid range [{lo:g}, {hi:g}] Hz")

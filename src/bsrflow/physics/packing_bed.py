@@ -36,7 +36,7 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
-from .motion import SinusoidalVibration
+from .motion import SinusoidalVibration, check_frequency
 from .packing import impact_speed, stiffness_factor_for_mach
 
 __all__ = ["PackingBed"]
@@ -92,11 +92,12 @@ class PackingBed:
     def __post_init__(self):
         if isinstance(self.dim, bool) or self.dim not in (2, 3):
             raise ValueError(f"dim = {self.dim!r} is outside the valid range {{2, 3}}")
-        for name in ("box_width", "bed_height", "diameter", "density", "stiffness", "coordination", "frequency",
+        for name in ("box_width", "bed_height", "diameter", "density", "stiffness", "coordination",
                      "t_end", "save_every", "gravity"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} = {v!r} is outside the valid range (0, inf)")
+        check_frequency(self.frequency)
         if not (0.01 <= self.restitution <= 1.0):      # unloading K/e²: e → 0 makes the step vanish
             raise ValueError(f"restitution = {self.restitution!r} is outside the valid range [0.01, 1]")
         if not (0.0 < self.phi_c < 0.75):

@@ -71,7 +71,7 @@ from ..numerics.grid_nd import GridND, ball_quadrature
 from ..numerics.solver import Scheme
 from ..numerics.solver_nd import ResultND, SimulationND
 from .kernels_nd import BSRModelND, walton_braun_nd
-from .motion import HalfSineTaps, SinusoidalVibration
+from .motion import HalfSineTaps, SinusoidalVibration, check_frequency
 
 __all__ = ["LayerSetup", "TappedLayer", "VibratedBox", "ScenarioRun", "run_scenario", "resting_profile",
            "check_whole_cells"]
@@ -204,6 +204,8 @@ class LayerSetup:
             raise ValueError(f"dissipation = {self.dissipation!r} is outside the valid range [0, 1)")
         if not (1e-3 <= self.gravity <= 1e4):                # the column's range; NaN fails too
             raise ValueError(f"gravity = {self.gravity!r} is outside the valid range [0.001, 10000] m/s^2")
+        if self.average not in ("na", "tensor"):
+            raise ValueError(f"average = {self.average!r} is not one of ('na', 'tensor')")
         if self.sides not in ("wall", "periodic"):
             raise ValueError(f"sides = {self.sides!r} is not one of ('wall', 'periodic')")
         if self.scheme != "seed":
@@ -301,8 +303,7 @@ class TappedLayer(LayerSetup):
         super().__post_init__()
         if not (np.isfinite(self.amplitude) and self.amplitude >= 0):
             raise ValueError(f"amplitude = {self.amplitude!r} is outside the valid range [0, inf) m")
-        if not (np.isfinite(self.frequency) and self.frequency > 0):
-            raise ValueError(f"frequency = {self.frequency!r} is outside the valid range (0, inf) Hz")
+        check_frequency(self.frequency)
         if int(self.n_taps) != self.n_taps or self.n_taps < 1:
             raise ValueError(f"n_taps = {self.n_taps!r} is outside the valid range: integers >= 1")
         dur = 0.5 / self.frequency
@@ -331,8 +332,7 @@ class VibratedBox(LayerSetup):
         super().__post_init__()
         if not (np.isfinite(self.amplitude) and self.amplitude >= 0):
             raise ValueError(f"amplitude = {self.amplitude!r} is outside the valid range [0, inf) m")
-        if not (np.isfinite(self.frequency) and self.frequency > 0):
-            raise ValueError(f"frequency = {self.frequency!r} is outside the valid range (0, inf) Hz")
+        check_frequency(self.frequency)
 
     def floor_speed(self) -> float:
         return self.amplitude * 2 * math.pi * self.frequency

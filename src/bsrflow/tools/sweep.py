@@ -72,6 +72,11 @@ _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.]*$")
 _INT = re.compile(r"^[+-]?\d+$")
 
 
+MAX_CASES = 100_000
+"""Most cases one sweep accepts (a review's sweep of 20 000 seed-kernel cases ran; one of 1e8
+was building its case list for minutes without a word)."""
+
+
 def parse_param(spec: str) -> tuple[str, list]:
     """Parse ``name=start:stop:num`` (linspace, num integer >= 1) or ``name=v1,v2,...``.
 
@@ -95,8 +100,8 @@ def parse_param(spec: str) -> tuple[str, list]:
             raise ValueError(f"--param {spec!r}: START and STOP must be numbers") from None
         if not (math.isfinite(start) and math.isfinite(stop)):
             raise ValueError(f"--param {spec!r}: START and STOP must be finite")
-        if not _INT.match(parts[2].strip()) or int(parts[2]) < 1:
-            raise ValueError(f"--param {spec!r}: NUM must be an integer >= 1, got {parts[2]!r}")
+        if not _INT.match(parts[2].strip()) or not 1 <= int(parts[2]) <= MAX_CASES:
+            raise ValueError(f"--param {spec!r}: NUM must be an integer in [1, {MAX_CASES}], got {parts[2]!r}")
         raw = list(np.linspace(start, stop, int(parts[2])))
         raw = [float(v) for v in raw]
     else:
@@ -123,6 +128,10 @@ def parse_params(specs) -> dict:
     out = dict(parsed)
     if not out:
         raise ValueError("no --param given: nothing to sweep")
+    n = math.prod(len(v) for v in out.values())
+    if n > MAX_CASES:
+        raise ValueError(f"--param: the sweep would have {n} cases ({' × '.join(str(len(v)) for v in out.values())}); "
+                         f"valid: at most {MAX_CASES} (split it into several sweeps)")
     return out
 
 
