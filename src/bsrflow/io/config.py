@@ -129,8 +129,9 @@ FIELDS: tuple[_Field, ...] = (
            "sphere diameter d (2.2 cm reproduces the seed's DEM heights; the seed never states d)",
            "m", 1e-6, 10),
     _Field("column", "density", "float", 1200.0, "density of the sphere material", "kg/m3", 1, 1e5),
-    _Field("column", "stiffness", "float", 1.366e7, "contact stiffness K (DEM loading; the kernel's K)",
-           "N/m", 1e-3, 1e12),
+    _Field("column", "stiffness", "float", 1.366e7, "contact stiffness K (DEM loading; the kernel's K; the "
+           "packing kernel also needs the column's weight to overlap its bottom contact by at most 0.05 d and "
+           "at most 1e9 steps, and names the range at the settings when not)", "N/m", 1e-3, 1e12),
     _Field("column", "restitution", "float", 0.9, "coefficient of restitution e of the DEM contacts "
            "(and of the packing law; the seed kernel's continuum does not use it)", "", 0.01, 1),
     _Field("column", "m0", "float", 406.0,
@@ -192,7 +193,8 @@ FIELDS: tuple[_Field, ...] = (
            "interaction radius d must span at least 2 cells)", "", 2, 1000),
     _Field("numerics", "cfl", "float", None, "Courant number override (default: the preset's; the packing "
            "kernel's: 0.4 eulerian, 0.5 lagrangian, 0.25 lagrangian with restitution 1); "
-           "at most the chosen stepper's stability limit", "", 0, 4, lo_open=True),
+           "at most the chosen stepper's stability limit (packing: 0.5 eulerian, 0.9 lagrangian, 0.25 "
+           "lagrangian with restitution 1)", "", 0, 4, lo_open=True),
     _Field("numerics", "stepper", "str", None, "Runge-Kutta stepper override (default: the "
            "preset's)", choices=_STEPPERS),
     _Field("numerics", "rtol", "float", None, "relative tolerance for adaptive time stepping "
