@@ -306,10 +306,11 @@ def test_a_negative_number_in_exponent_form_is_a_value(tmp_path, capsys):
     """`--dt -5e-6` was taken for an option ("expected one argument"); it is a value whose
     range check names it, as `--dt -0.5` always was."""
     from bsrflow.cli import main
-    for value in ("-5e-6", "-0.5", "-1E+2"):
+    for value in ("-5e-6", "-0.5", "-1E+2", "-inf", "-NaN"):
         assert main(["compare-dump", str(tmp_path / "x.dump"), "--dt", value]) == 2
         err = capsys.readouterr().err.strip().splitlines()
-        assert len(err) == 1 and "--dt -" in err[0] and "outside the valid range (0, inf)" in err[0], err
+        shown = "--dt nan" if value == "-NaN" else "--dt -"               # float("-NaN") is nan
+        assert len(err) == 1 and shown in err[0] and "outside the valid range (0, inf)" in err[0], err
 
 
 @pytest.mark.parametrize("workers", [1, 2])

@@ -55,13 +55,14 @@ def _bad_files(tmp_path):
     # a review (2026-12-03): a NaN offset was checked only after the run, a count mismatch only warned
     add("floor_nan", "good.dump", GOOD, ["--dt", "1e-5", "--floor-offset", "nan"], "--floor-offset nan")
     add("time_offset_inf", "good2.dump", GOOD, ["--dt", "1e-5", "--time-offset", "inf"], "--time-offset inf")
+    add("floor_minus_inf", "good3.dump", GOOD, ["--dt", "1e-5", "--floor-offset", "-inf"], "--floor-offset -inf is")
     add("atoms_not_spheres", "two.dump", TIMED, [], "contradicts the dump's 2 atoms")
     return cases
 
 
 CASES = ["gz_not_gzip", "gz_truncated", "gz_garbage", "nan_coordinate", "inf_coordinate", "zero_atoms",
          "one_frame", "constant_axis", "conflicting_dt", "no_times", "floor_above_spheres", "directory",
-         "floor_nan", "time_offset_inf", "atoms_not_spheres"]
+         "floor_nan", "time_offset_inf", "floor_minus_inf", "atoms_not_spheres"]
 
 
 @pytest.mark.parametrize("case", CASES)

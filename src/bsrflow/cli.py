@@ -35,12 +35,13 @@ COMMAND_MODULES = [
 class _OneLineErrors(argparse.ArgumentParser):
     """argparse with the package's error form: one line on stderr, ``prog: error: message``,
     exit code 2 (no usage block; ``--help`` gives it).  A negative number in exponent form
-    (``--dt -5e-6``) is read as a value, as ``-0.5`` is, so that its range check names it
-    (argparse took it for an option: "expected one argument")."""
+    (``--dt -5e-6``) or ``-inf`` / ``-nan`` is read as a value, as ``-0.5`` is, so that its range
+    check names it (argparse took it for an option: "expected one argument")."""
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
-        self._negative_number_matcher = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
+        self._negative_number_matcher = re.compile(r"^-((\d+\.?\d*|\.\d+)([eE][-+]?\d+)?|inf|infinity|nan)$",
+                                                   re.IGNORECASE)
 
     def error(self, message):
         self.exit(2, f"{self.prog}: error: {' '.join(str(message).split())}\n")
