@@ -18,8 +18,12 @@ network's bound; below about 0.5 the run goes unstable), and the time step follo
 central flux there (upwinded at the flow speed only); the free surface keeps HLLE.
 ``--restitution`` overrides the case's e (1: elastic bonds, the histories play no part).
 
+Since 2026-12-03 the package has an Eulerian form of the nonlocal interaction that keeps it (a
+staggered Lagrange-remap step with a tracked free surface, :mod:`bsrflow.numerics.packing_staggered`);
+its rows ("eulerian (package)") are printed beside the trial's ("eulerian FV (trial)").
+
 For one case of ``bsrflow compare --kernel packing`` it prints, at each ``--ppd``, the top maximum
-of the trial and of the package's nonlocal Lagrangian form against the DEM (``--no-dem``: only the
+of the trial and of the package's nonlocal Lagrangian and Eulerian forms against the DEM (``--no-dem``: only the
 probe below, no DEM and no run past it), and 10 ms after the tap (in aω, floor frame) the
 velocities of the third sphere below the top one, of the top three spheres (the top one last)
 and of the top four quarter-sphere slabs of material (top first), and the top slab's thickness in units of its packed thickness d/4: the
@@ -388,7 +392,7 @@ def main(argv=None):
         ap.error(f"--restitution {args.restitution} outside the valid range (0, 1]")
     case = next(c for c in PACKING_CASES if c["name"] == args.case)
     base = ColumnSetup(kernel_name="packing", formulation="lagrangian", range_over_d=1.0)
-    s0 = case_setup(case, base, formulation="lagrangian")
+    s0 = case_setup(case, base, formulation="lagrangian", range_over_d=1.0)
     if args.restitution is not None:
         s0 = s0.with_(restitution=args.restitution)
     d, aw, m = s0.diameter, s0.amplitude * s0.omega, s0.particle_mass
@@ -405,7 +409,8 @@ def main(argv=None):
     for p in args.ppd:
         s = s0.with_(points_per_diameter=p)
         for name, disc in (("lagrangian (package)", s.packing_discretisation()),
-                           ("eulerian (trial)", trial_column(s, args.cap, args.bulk))):
+                           ("eulerian (package)", s.with_(formulation="eulerian").packing_discretisation()),
+                           ("eulerian FV (trial)", trial_column(s, args.cap, args.bulk))):
             w = time.perf_counter()
             t_probe = s.tap_start + 0.01
             saves = np.round(np.arange(0.0, s.t_end + 1e-12, s.save_every), 9)

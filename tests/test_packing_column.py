@@ -147,7 +147,7 @@ def test_config_fields_and_refusals():
                         ({"model.stiffness_mach": 0.01}, "model.stiffness_mach"),
                         ({"model.range_over_d": 1.0}, "model.range_over_d"),
                         ({"model.kernel": "packing", "model.range_over_d": 5.0}, "model.range_over_d"),
-                        ({"model.kernel": "packing", "numerics.formulation": "eulerian", "model.range_over_d": 1.0},
+                        ({"model.kernel": "packing", "numerics.formulation": "eulerian", "model.range_over_d": 0.05},
                          "model.range_over_d")]:
         with pytest.raises(ConfigError) as exc:
             Config.default().with_overrides(over)
@@ -188,7 +188,7 @@ def test_cli_unknown_kernel_and_formulation_exit_2(tmp_path, capsys):
         assert rc == 2 and len(err) == 1 and opt.split("=")[0] in err[0]
     assert main(["compare", "--kernel", "foo"]) == 2
     assert main(["compare", "--kernel", "packing", "--formulation", "upwind"]) == 2
-    assert main(["compare", "--kernel", "packing", "--models", "eulerian:1"]) == 2
+    assert main(["compare", "--kernel", "packing", "--models", "eulerian:9"]) == 2
     assert "--models" in capsys.readouterr().err
     assert main(["compare", "--kernel", "packing", "--models", "upwind:0"]) == 2
     assert main(["compare", "--kernel", "packing", "--models", "lagrangian:x"]) == 2

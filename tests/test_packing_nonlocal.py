@@ -10,7 +10,7 @@ import pytest
 from bsrflow.numerics import packing_nonlocal as pnl
 from bsrflow.numerics import packing_reference as ref
 from bsrflow.numerics.grid import Grid1D
-from bsrflow.numerics.packing import EulerianPacking, LagrangianPacking, run_packing
+from bsrflow.numerics.packing import EulerianPacking, LagrangianPacking, StaggeredEulerianPacking, run_packing
 from bsrflow.physics.column import ColumnSetup
 from bsrflow.physics.motion import HalfSineTaps, Rest
 from bsrflow.physics.packing import PackingLaw, bond_weights
@@ -189,8 +189,8 @@ def test_the_top_sphere_is_thrown_ahead():
 
 
 def test_refusals():
-    with pytest.raises(ValueError, match="range_over_d"):
-        ColumnSetup(kernel_name="packing", formulation="eulerian", range_over_d=1.0)
+    with pytest.raises(ValueError, match="range_over_d"):    # not a whole number of cells at 10 per diameter
+        ColumnSetup(kernel_name="packing", formulation="eulerian", range_over_d=1.05)
     with pytest.raises(ValueError, match="range_over_d"):
         ColumnSetup(kernel_name="seed", range_over_d=1.0)
     with pytest.raises(ValueError, match="range_over_d"):
@@ -208,6 +208,7 @@ def test_refusals():
     with pytest.raises(ValueError, match="range_over_d"):
         PackingLawND.from_1d(LAW)
     assert "range_over_d" in LagrangianPacking.supports and "range_over_d" not in EulerianPacking.supports
+    assert "range_over_d" in StaggeredEulerianPacking.supports
     # a range must be a whole number of point spacings: 0.05 d at 10 per diameter would be the
     # local form under another name, 1.05 d would be rounded
     for bad in (0.05, 1.05, 0.25):
@@ -254,10 +255,12 @@ def test_elastic_law_defaults_to_a_step_at_which_a_resting_column_stays_at_rest(
     from bsrflow.numerics.packing import LagrangianPacking
     from bsrflow.physics.column import ColumnSetup
 
-    def kinetic_energy(**kw):
-        s = ColumnSetup(kernel_name="packing", formulation="lagrangian", points_per_diameter=5, restitution=1.0,
-                        domain_height=3000 * 0.022, **kw)
-        disc = s.packing_discretisation()
+    s = ColumnSetup(kernel_name="packing", formulation="lagrangian", points_per_diameter=5, restitution=1.0,
+                    domain_height=3000 * 0.022)
+
+    def kinetic_energy(cfl=None):
+        disc = s.packing_discretisation() if cfl is None else \
+            LagrangianPacking(s.packing_law(), s.grid(), s.n_spheres, s.motion(), s.gravity, 5, cfl=cfl)
         disc.advance(0.0, 0.4)                       # before the tap at 0.4 s
         return disc.cfl, 0.5 * disc.mu * float(np.sum(disc.v ** 2))
 
@@ -265,6 +268,8 @@ def test_elastic_law_defaults_to_a_step_at_which_a_resting_column_stays_at_rest(
     assert cfl == LagrangianPacking.DEFAULT_CFL_ELASTIC == 0.25
     assert ke < 1e-6
     assert kinetic_energy(cfl=0.5)[1] > 1e-5
+    with pytest.raises(ValueError, match=r"cfl = 0.5 is outside the valid range \[0.001, 0.25\]"):
+        s.with_(cfl=0.5)                             # so a column refuses it
     assert ColumnSetup(kernel_name="packing", formulation="lagrangian").packing_discretisation().cfl == 0.5
 
 

@@ -11,9 +11,17 @@ BASE = ('[model]\nkernel = "packing"\n[numerics]\nformulation = "{form}"\n'
         '[run]\nt_end = 0.5\nsave_every = 0.025\ncheckpoint_every = 0.1\nwrite_state = true\n')
 
 
+def _config_text(form):
+    """The config of ``form``: eulerian, lagrangian, or eulerian_nonlocal (the Eulerian form of the
+    nonlocal interaction, R = d: the staggered grid with a tracked surface)."""
+    if form == "eulerian_nonlocal":
+        return BASE.format(form="eulerian").replace('kernel = "packing"\n', 'kernel = "packing"\nrange_over_d = 1.0\n')
+    return BASE.format(form=form)
+
+
 def _run(tmp_path, form, name="a", argv=()):
     cfg = tmp_path / f"{name}.toml"
-    cfg.write_text(BASE.format(form=form))
+    cfg.write_text(_config_text(form))
     out = tmp_path / f"{name}.nc"
     assert main(["run", str(cfg), "--out", str(out), "--quiet", *argv]) == 0
     return out
@@ -22,7 +30,7 @@ def _run(tmp_path, form, name="a", argv=()):
 @pytest.fixture(scope="module")
 def files(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("state")
-    return {form: _run(tmp, form, form) for form in ("eulerian", "lagrangian")}
+    return {form: _run(tmp, form, form) for form in ("eulerian", "lagrangian", "eulerian_nonlocal")}
 
 
 def test_eulerian_state_fields_are_the_grid_state(files):
@@ -66,7 +74,7 @@ def test_lagrangian_state_fields_are_the_material_points(files):
         assert hist.min() >= 0.0 and hist.max() > 0.0
 
 
-@pytest.mark.parametrize("form", ["eulerian", "lagrangian"])
+@pytest.mark.parametrize("form", ["eulerian", "lagrangian", "eulerian_nonlocal"])
 def test_state_fields_resume_bit_for_bit(tmp_path, files, form):
     """Interrupted after a checkpoint and resumed: every variable of the file, the state fields included,
     equals the uninterrupted run's bit for bit."""
@@ -79,7 +87,7 @@ def test_state_fields_resume_bit_for_bit(tmp_path, files, form):
         if t > 0.26:
             raise KeyboardInterrupt()
     cfg = tmp_path / "p.toml"
-    cfg.write_text(BASE.format(form=form))
+    cfg.write_text(_config_text(form))
     out = tmp_path / "p.nc"
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(runner, "drive", lambda job, **kw: real(job, **{**kw, "progress": stop}))
@@ -89,6 +97,22 @@ def test_state_fields_resume_bit_for_bit(tmp_path, files, form):
         assert set(a.data_vars) == set(b.data_vars)
         for k in a.data_vars:
             np.testing.assert_array_equal(a[k].values, b[k].values, err_msg=k)
+
+
+def test_nonlocal_eulerian_state_fields_are_its_grid_and_surface(files):
+    """The Eulerian form of the nonlocal interaction: the cells' masses give the file's rho (the
+    top cell spread over the grid cells it reaches), the surface is above the top tracer, the
+    bond histories are non-negative and loaded by the tap."""
+    with xr.open_dataset(files["eulerian_nonlocal"]) as ds:
+        assert ds["state_velocity"].dims == ("time", "face") and ds["state_delta_max"].dims[1] == "lag"
+        dx = float(ds["x"].values[1] - ds["x"].values[0])
+        mass = ds["state_cell_mass"].values
+        np.testing.assert_allclose(mass.sum(axis=1), ds["rho"].values.sum(axis=1) * dx, rtol=1e-12)
+        surface = ds["state_surface"].values
+        top_tracer = ds["tracer_height"].values[:, -1] - ds["floor"].values
+        assert np.all(surface[:, 1] > top_tracer)
+        hist = ds["state_delta_max"].values
+        assert hist.min() >= 0.0 and hist.max() > 0.0
 
 
 def test_write_state_is_refused_where_it_does_not_apply(tmp_path, capsys):

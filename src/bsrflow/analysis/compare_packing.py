@@ -45,8 +45,8 @@ the package's packing continuum; Lagrangian only) and the local limit in both fo
 def parse_models(text: str):
     """'lagrangian:1,eulerian:0' -> (("lagrangian", 1.0), ("eulerian", 0.0)); a formulation without
     ':R' takes its default range (1 Lagrangian, 0 Eulerian).  ValueError naming ``--models`` on bad
-    input (an unknown formulation, a range outside [0, 4], a nonlocal range with the Eulerian
-    formulation, which supports only 0, or a model given twice)."""
+    input (an unknown formulation, a range outside [0, 4] or a model given twice).  A nonlocal
+    range with the Eulerian formulation runs :class:`~bsrflow.numerics.packing.StaggeredEulerianPacking`."""
     from ..physics.packing import MAX_RANGE_OVER_D
     out = []
     for item in text.split(","):
@@ -63,9 +63,6 @@ def parse_models(text: str):
             raise ValueError(f"--models: {item!r}: the range {rng!r} is not a number in [0, {MAX_RANGE_OVER_D:g}]") from None
         if not (math.isfinite(r) and 0.0 <= r <= MAX_RANGE_OVER_D):
             raise ValueError(f"--models: {item!r}: the range {r!r} is outside the valid range [0, {MAX_RANGE_OVER_D:g}]")
-        if form == "eulerian" and r != 0.0:
-            raise ValueError(f"--models: {item!r}: the range is outside the valid range [0, 0] of the eulerian "
-                             "formulation (the nonlocal interaction is the lagrangian formulation's)")
         if (form, r) in out:
             raise ValueError(f"--models: {item!r} is given twice")
         out.append((form, r))

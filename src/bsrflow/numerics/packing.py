@@ -36,8 +36,9 @@ from .grid import Grid1D
 from .solver import SimulationError
 from . import packing_kernels as pk
 from . import packing_nonlocal as pnl
+from . import packing_staggered as pst
 
-__all__ = ["EulerianPacking", "LagrangianPacking", "PackingResult", "PackingError", "run_packing",
+__all__ = ["EulerianPacking", "StaggeredEulerianPacking", "LagrangianPacking", "PackingResult", "PackingError", "run_packing",
            "FORMULATIONS"]
 
 FORMULATIONS = ("eulerian", "lagrangian")
@@ -116,9 +117,8 @@ class EulerianPacking(_Base):
         super().__init__(law, grid, n_spheres, motion, gravity, points_per_diameter, cfl)
         n = grid.n_cells
         if law.is_nonlocal:
-            raise ValueError(f"range_over_d = {law.range_over_d!r} is outside the valid range [0, 0] of the "
-                             "eulerian packing formulation (the nonlocal interaction is the lagrangian "
-                             "formulation's; docs/model.md)")
+            raise ValueError(f"range_over_d = {law.range_over_d!r}: EulerianPacking runs the local limit "
+                             "(range_over_d = 0); the nonlocal interaction's Eulerian form is StaggeredEulerianPacking")
         self.q = np.zeros((3, n + 2 * pk.NG))
         if rho0 is not None:
             self.q[pk.RHO, pk.NG:pk.NG + n] = rho0
@@ -171,6 +171,107 @@ class EulerianPacking(_Base):
         faces = np.concatenate([[0.0], self.grid.x + 0.5 * dx])
         tracers = np.interp(self.sphere_masses * (cum[-1] / self.total_mass()), cum, faces)
         return rho, u, tracers, 0.5 * float(np.sum(rho * u * u)) * dx
+
+
+class StaggeredEulerianPacking(_Base):
+    """Formulation (a) of the nonlocal interaction (``range_over_d`` > 0): the mass in the grid's
+    cells, the velocity on its faces, a tracked free surface, a staggered Lagrange-remap step
+    (:mod:`bsrflow.numerics.packing_staggered`).  Starts at rest at close packing on [0, N d]
+    (N d must be a whole number of cells: ``points_per_diameter`` cells per diameter)."""
+
+    name = "eulerian"
+    cfl_limit = 0.5
+    DEFAULT_CFL = 0.25
+    supports = frozenset({"cfl", "points_per_diameter", "stiffness_factor", "range_over_d", "save_every",
+                          "checkpoint_every"})
+
+    def __init__(self, law, grid, n_spheres, motion, gravity, points_per_diameter, cfl=None):
+        if cfl is None:
+            cfl = self.DEFAULT_CFL
+        super().__init__(law, grid, n_spheres, motion, gravity, points_per_diameter, cfl)
+        if not law.is_nonlocal:
+            raise ValueError("StaggeredEulerianPacking runs the nonlocal interaction (range_over_d > 0); the local "
+                             "limit is EulerianPacking's")
+        n = grid.n_cells
+        top = self.n_spheres * self.ppd
+        if abs(grid.dx * self.ppd - law.diameter) > 1e-9 * law.diameter or top + 6 > n:
+            raise ValueError("grid must have points_per_diameter cells per diameter and room above the column")
+        self.weights = law.bond_weights(self.ppd)
+        self.n_lags = len(self.weights)
+        self.norm = pst.weight_norm(self.n_lags)
+        self.mu = law.particle_mass / self.ppd
+        self.mass = np.zeros(n)
+        self.mass[:top] = self.mu
+        self.v = np.zeros(n + 1)
+        self.hist = np.zeros((self.n_lags + 2, n + 2))
+        self.himg = np.zeros((self.n_lags + 3, self.n_lags + 3))
+        self.surf = np.array([top - 1.0, self.n_spheres * law.diameter, 0.0])
+        self.dt_max = self.cfl * pnl.nonlocal_time_step_bound(self.weights, self.ppd, law.k2, law.particle_mass)
+        self.counters = np.zeros(3, dtype=np.int64)
+
+    @property
+    def field_schema(self) -> dict:
+        """The named state fields: name -> (dimensions, units, long_name) (``x``: the grid's cells;
+        ``face``: its faces from the floor; ``lag``: 1..L + 2; ``node``, ``image``: 0..L + 2)."""
+        return {"cell_mass": (("x",), "kg", "mass of each grid cell (the top cell reaches to the surface)"),
+                "velocity": (("face",), "m s-1", "velocity of the material at each face (floor frame; face 0 "
+                             "the floor)"),
+                "delta_max": (("lag", "face_bonds"), "m", "largest overlap per contact reached on the bond from "
+                              "each face to the node lag faces above it"),
+                "delta_max_image": (("node", "image"), "m", "the same for the bond from each node to the "
+                                    "mirror image of a node below the floor"),
+                "surface": (("surface_state",), "1, m, m s-1", "the top cell's index, the free surface's "
+                            "height (floor frame) and velocity")}
+
+    @property
+    def fields(self):
+        return {"cell_mass": self.mass, "velocity": self.v, "delta_max": self.hist, "delta_max_image": self.himg,
+                "surface": self.surf}
+
+    def apply_velocity_jump(self, dv):
+        K = int(self.surf[0])
+        self.v[1:K + 1] -= dv
+        self.surf[2] -= dv
+
+    def advance(self, t, t_stop):
+        law = self.law
+        self.counters[1:] = 0
+        t = pst.staggered_advance(self.mass, self.v, self.hist, self.himg, self.surf, float(t), float(t_stop),
+                                  self.dt_max, self.grid.dx, law.diameter, law.particle_mass, law.k1, law.k2,
+                                  self.mu, self.n_lags, self.norm, law.close_packing_density, self._fn,
+                                  self._params, self.gravity, self.counters)
+        self.steps = int(self.counters[0])
+        status = int(self.counters[1])
+        if status:
+            cell = int(self.counters[2])
+            where = float(min(cell + 0.5, self.grid.n_cells - 0.5) * self.grid.dx)
+            msg = {pst.BAD_CELL: "a cell's mass became non-positive or its velocity non-finite",
+                   pst.DOMAIN_TOP: "material reached the top of the domain"}[status]
+            raise PackingError(f"{msg} at t = {t:.6g} s, x = {where:.4g} m (cell {cell})", t, where)
+        return t
+
+    def cumulative_mass(self):
+        """(nodes [m], cumulative mass [kg]): the faces up to the top cell and the surface, and
+        the mass below each (density uniform in each cell)."""
+        K, X = int(self.surf[0]), float(self.surf[1])
+        nodes = np.concatenate([self.grid.dx * np.arange(K + 1), [X]])
+        cum = np.concatenate([[0.0], np.cumsum(self.mass[:K + 1])])
+        return nodes, cum
+
+    def observe(self):
+        """(rho [kg/m], u [m/s], tracers [m], kinetic energy [J]) on the grid, floor frame."""
+        nodes, cum = self.cumulative_mass()
+        K = int(self.surf[0])
+        dx = self.grid.dx
+        faces = np.concatenate([[0.0], self.grid.x + 0.5 * dx])
+        rho = np.diff(np.interp(faces, nodes, cum, right=cum[-1])) / dx
+        vel = np.concatenate([self.v[:K + 1], [self.surf[2]]])
+        u = np.interp(self.grid.x, nodes, vel)
+        u[rho <= 0.0] = 0.0
+        tracers = np.interp(self.sphere_masses, cum, nodes)
+        mnode = np.concatenate([[0.5 * (self.mass[f - 1] + self.mass[f]) for f in range(1, K + 1)],
+                                [0.5 * self.mass[K]]])
+        return rho, u, tracers, 0.5 * float(np.sum(mnode * vel[1:] ** 2))
 
 
 class LagrangianPacking(_Base):

@@ -172,10 +172,6 @@ class ColumnSetup:
             if not (np.isfinite(self.range_over_d) and 0.0 <= self.range_over_d <= MAX_RANGE_OVER_D):
                 raise ValueError(f"range_over_d = {self.range_over_d!r} is outside the valid range "
                                  f"[0, {MAX_RANGE_OVER_D:g}]")
-            if self.formulation == "eulerian" and self.range_over_d != 0.0:
-                raise ValueError(f"range_over_d = {self.range_over_d!r} is outside the valid range [0, 0] of the "
-                                 "eulerian packing formulation (the nonlocal interaction is the lagrangian "
-                                 "formulation's)")
             if self.range_over_d > self.n_spheres:
                 raise ValueError(f"range_over_d = {self.range_over_d!r} is outside the valid range "
                                  f"[0, {self.n_spheres}] for a column of {self.n_spheres} spheres")
@@ -315,12 +311,14 @@ class ColumnSetup:
         """The packing continuum's discretisation of this column, at rest at close packing
         (ρ = m/d on [0, N d]): :class:`~bsrflow.numerics.packing.EulerianPacking` or
         :class:`~bsrflow.numerics.packing.LagrangianPacking`."""
-        from ..numerics.packing import EulerianPacking, LagrangianPacking
+        from ..numerics.packing import EulerianPacking, LagrangianPacking, StaggeredEulerianPacking
         law, grid = self.packing_law(), self.grid()
         args = (law, grid, self.n_spheres, self.motion(), self.gravity, self.points_per_diameter)
         kw = {} if self.cfl is None else {"cfl": self.cfl}
         if self.formulation == "lagrangian":
             return LagrangianPacking(*args, **kw)
+        if law.is_nonlocal:
+            return StaggeredEulerianPacking(*args, **kw)
         rho0 = np.where(grid.x < self.n_spheres * self.diameter, law.close_packing_density, 0.0)
         return EulerianPacking(*args, rho0=rho0, **kw)
 
