@@ -3,8 +3,8 @@
     python bench/bench_packing.py --json bench/results.json [--repeats 3] [--ppd 10]
 
 The default column (d = 2.2 cm, 20 spheres, a/d = 0.75, one tap at 0.4 s) from rest to t = 2 s:
-each packing model (the nonlocal interaction, R = d, in the Lagrangian formulation; the local
-limit in both formulations) at the true contact stiffness and with the reduced-stiffness option
+each packing model (the nonlocal interaction, R = d, and its local limit, each in both
+formulations) at the true contact stiffness and with the reduced-stiffness option
 (``suggest_stiffness_factor`` at impact Mach number 0.01), beside the package's DEM of the same
 column, measured in the same run (median of ``--repeats`` wall times after compilation, one
 core).  The result is added under the key ``"packing_column_2s"`` to the JSON file (which
@@ -50,7 +50,7 @@ def main(argv=None):
     dem_wall, dem_walls, _ = _median_wall(lambda: run_dem_column(base), args.repeats)
     rows = []
     print(f"DEM: {dem_wall:.3f} s (median of {args.repeats})", flush=True)
-    for form, rng in PACKING_MODELS:
+    for form, rng in PACKING_MODELS + (("eulerian", 0.0), ("lagrangian", 0.0)):
         for factor in (1.0, phi):
             s = base.with_(formulation=form, range_over_d=rng, stiffness_factor=factor)
             wall, walls, run = _median_wall(lambda: run_bsr_column(s), args.repeats)

@@ -30,7 +30,7 @@ def _top_peak(run, s):
     return run.top[k] / s.diameter, run.t[k]
 
 
-@pytest.mark.parametrize("form,rng", [("eulerian", None), ("lagrangian", None), ("lagrangian", 0.0)])
+@pytest.mark.parametrize("form,rng", [("eulerian", None), ("eulerian", 0.0), ("lagrangian", None), ("lagrangian", 0.0)])
 def test_small_column_mass_positivity_and_flight(form, rng):
     s = ColumnSetup(**SMALL, formulation=form, range_over_d=rng)
     r = run_bsr_column(s)
@@ -65,7 +65,7 @@ def test_formulations_agree_and_follow_the_dem_mass_centre():
         assert rms < 0.5
 
 
-@pytest.mark.parametrize("form,rng", [("lagrangian", None), ("lagrangian", 0.0), ("eulerian", None)])
+@pytest.mark.parametrize("form,rng", [("lagrangian", None), ("lagrangian", 0.0), ("eulerian", 0.0)])
 def test_stiffness_option_within_its_documented_bound(form, rng):
     s = ColumnSetup(**(SMALL | dict(n_spheres=20, t_end=0.9, tap_start=0.1)), formulation=form, range_over_d=rng)
     phi = suggest_stiffness_factor(s)
@@ -129,7 +129,7 @@ def test_config_fields_and_refusals():
     # defaults: a packing config is the Lagrangian formulation with R = d; the Eulerian one is local
     dflt = Config.default().with_overrides({"model.kernel": "packing"}).column_setup()
     assert (dflt.formulation, dflt.interaction_range()) == ("lagrangian", 1.0)
-    assert eul.interaction_range() == 0.0
+    assert eul.interaction_range() == 1.0                 # the nonlocal interaction in both formulations
     assert Config.default().column_setup().formulation == "eulerian"           # the seed kernel's
     local = Config.default().with_overrides({"model.kernel": "packing", "model.range_over_d": 0.0}).column_setup()
     assert local.packing_law().range_over_d == 0.0
@@ -211,7 +211,7 @@ def test_cli_unknown_kernel_and_formulation_exit_2(tmp_path, capsys):
     assert not (tmp_path / "x.nc").exists()
 
 
-@pytest.mark.parametrize("form,rng", [("eulerian", None), ("lagrangian", None), ("lagrangian", 0.0)])
+@pytest.mark.parametrize("form,rng", [("eulerian", None), ("eulerian", 0.0), ("lagrangian", None), ("lagrangian", 0.0)])
 def test_run_output_and_restart_bit_for_bit(tmp_path, form, rng):
     over = {"model.kernel": "packing", "numerics.formulation": form, "column.n_spheres": 6,
             "tap.start": 0.05, "run.t_end": 0.3, "run.save_every": 0.01, "run.checkpoint_every": 0.05,
@@ -224,7 +224,7 @@ def test_run_output_and_restart_bit_for_bit(tmp_path, form, rng):
     with xr.open_dataset(tmp_path / "full.nc") as ds:
         a = ds.load()
     assert a.attrs["kernel"] == "packing" and a.attrs["formulation"] == form
-    assert a.attrs["range_over_d"] == (1.0 if (form, rng) == ("lagrangian", None) else 0.0)
+    assert a.attrs["range_over_d"] == (1.0 if rng is None else rng)
     assert a["tracer_height"].shape == (31, 6) and a["tracer_height"].attrs["units"] == "m"
     assert np.allclose(a["top"].values, a["tracer_height"].values[:, -1])
     assert a["mass_centre"].attrs["units"] == "m"
@@ -240,10 +240,14 @@ def test_run_output_and_restart_bit_for_bit(tmp_path, form, rng):
         run_config(cfg, tmp_path / "part.nc", progress=stop_late)
     assert (tmp_path / "part.nc.ckpt").exists()
     from bsrflow.io.checkpoint import read_checkpoint
-    hist = read_checkpoint(tmp_path / "part.nc.ckpt").fields["delta_max" if form == "lagrangian" else "rho_delta_max"]
-    # the nonlocal default keeps one history per bond: (L, points), L = ppd R/d = 4
+    fields = read_checkpoint(tmp_path / "part.nc.ckpt").fields
+    hist = fields["delta_max" if form == "lagrangian" or rng is None else "rho_delta_max"]
+    # the nonlocal default keeps one history per bond: (L, points), L = ppd R/d = 4; on the
+    # staggered grid (L + 2, faces + 1), the surface's bonds being one or two lags longer
     if (form, rng) == ("lagrangian", None):
         assert hist.shape == (4, 24)
+    elif rng is None:
+        assert hist.shape == (6, fields["cell_mass"].size + 2)
     else:
         assert hist.ndim == 1
     resumed = run_config(cfg, tmp_path / "part.nc", resume=True)

@@ -101,7 +101,7 @@ def test_a_column_runs_the_1d_finite_volumes_bit_for_bit():
     from bsrflow.physics.column import ColumnSetup
 
     s = ColumnSetup(kernel_name="packing", formulation="eulerian", n_spheres=4, points_per_diameter=4,
-                    tap_start=0.005, t_end=0.12, save_every=0.01, cfl=0.4)
+                    tap_start=0.005, t_end=0.12, save_every=0.01, cfl=0.4, range_over_d=0.0)
     disc1 = s.packing_discretisation()
     saves = save_schedule(0.0, s.t_end, s.save_every)
     r1 = run_packing(disc1, s.t_end, saves)

@@ -27,7 +27,7 @@ W = LAW.bond_weights(PPD)
 
 def test_default_is_the_nonlocal_interaction_over_one_diameter():
     assert SETUP.interaction_range() == 1.0 and LAW.range_over_d == 1.0 and LAW.is_nonlocal
-    assert ColumnSetup(kernel_name="packing", formulation="eulerian").interaction_range() == 0.0
+    assert ColumnSetup(kernel_name="packing", formulation="eulerian").interaction_range() == 1.0
     assert len(W) == PPD
 
 

@@ -12,11 +12,11 @@ BASE = ('[model]\nkernel = "packing"\n[numerics]\nformulation = "{form}"\n'
 
 
 def _config_text(form):
-    """The config of ``form``: eulerian, lagrangian, or eulerian_nonlocal (the Eulerian form of the
-    nonlocal interaction, R = d: the staggered grid with a tracked surface)."""
-    if form == "eulerian_nonlocal":
-        return BASE.format(form="eulerian").replace('kernel = "packing"\n', 'kernel = "packing"\nrange_over_d = 1.0\n')
-    return BASE.format(form=form)
+    """The config of ``form``: eulerian (the local limit, R = 0: finite volumes), lagrangian, or
+    eulerian_nonlocal (the default range R = d: the staggered grid with a tracked surface)."""
+    if form == "eulerian":                       # the local limit's finite volumes
+        return BASE.format(form="eulerian").replace('kernel = "packing"\n', 'kernel = "packing"\nrange_over_d = 0.0\n')
+    return BASE.format(form="eulerian" if form == "eulerian_nonlocal" else form)
 
 
 def _run(tmp_path, form, name="a", argv=()):

@@ -235,9 +235,8 @@ def add_parser(sub):
             p.add_argument("--models", default=None, metavar="F:R,...",
                            help="packing only: the models to run, FORMULATION[:R_OVER_D] comma-separated, "
                            "R_OVER_D 0 or a whole number of point spacings, the formulation's default when "
-                           "absent (default lagrangian:1,eulerian:0,lagrangian:0: the nonlocal interaction over "
-                           "one diameter and the local limit in both formulations; the eulerian formulation "
-                           "supports only R = 0)")
+                           "absent, 1 (default lagrangian:1,eulerian:1: the nonlocal interaction over one "
+                           "diameter in both formulations; eulerian:0,lagrangian:0 is its local limit)")
             p.add_argument("--formulation", default=None, help="packing only: keep only the models of these "
                            "formulations, eulerian, lagrangian or both (comma-separated)")
             p.add_argument("--cases", default=None, help="packing only: comma-separated case names (default all)")
@@ -420,8 +419,8 @@ def _main(args) -> int:
         print(format_table(result))
         if args.command == "demo":
             from .compare_packing import demo_packing, format_demo_table
-            print("the packing continuum on the same cases (nothing fitted): the nonlocal interaction (lagrangian) "
-                  "and the local limit (eulerian):")
+            print("the packing continuum on the same cases (nothing fitted): the nonlocal interaction over one "
+                  "diameter, lagrangian and eulerian:")
             result = demo_packing(result, base, figures=os.path.join(args.out, "figures_packing"), log=_log)
             print(format_demo_table(result))
     if json_path:

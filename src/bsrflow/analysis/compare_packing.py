@@ -4,8 +4,8 @@
 :data:`PACKING_CASES` (d = 5, 10, 22 mm at a/d = 0.5, 0.75, 1.0, 1.5, single taps; three taps
 with period 1.0 s at d = 22 mm, a/d = 0.75 and 1.0), the package's DEM and the packing
 continuum (:mod:`bsrflow.physics.packing`) in each model of ``models`` (:data:`PACKING_MODELS`,
-(formulation, R/d) pairs: by default the nonlocal interaction over one diameter, Lagrangian, and
-the local limit in both formulations).  Only the contact law's K and e, d, the material density,
+(formulation, R/d) pairs: by default the nonlocal interaction over one diameter in both
+formulations).  Only the contact law's K and e, d, the material density,
 N and g enter the continuum: no calibration step, and the JSON says so with
 ``"fitted_constants": {}``.
 
@@ -37,14 +37,14 @@ from ..physics.column import ColumnSetup, model_label, run_bsr_column
 __all__ = ["PACKING_CASES", "PACKING_MODELS", "case_setup", "compare_packing", "coarse_grained_density",
            "format_packing_table", "demo_packing", "format_demo_table", "model_label", "parse_models"]
 
-PACKING_MODELS = (("lagrangian", 1.0), ("eulerian", 0.0), ("lagrangian", 0.0))
-"""The packing models compared by default, (formulation, R/d): the nonlocal interaction (R = d,
-the package's packing continuum; Lagrangian only) and the local limit in both formulations."""
+PACKING_MODELS = (("lagrangian", 1.0), ("eulerian", 1.0))
+"""The packing models compared by default, (formulation, R/d): the package's packing continuum, the
+nonlocal interaction (R = d), in both formulations (the local limit, R = 0, with ``--models``)."""
 
 
 def parse_models(text: str):
     """'lagrangian:1,eulerian:0' -> (("lagrangian", 1.0), ("eulerian", 0.0)); a formulation without
-    ':R' takes its default range (1 Lagrangian, 0 Eulerian).  ValueError naming ``--models`` on bad
+    ':R' takes the default range, 1.  ValueError naming ``--models`` on bad
     input (an unknown formulation, a range outside [0, 4] or a model given twice).  A nonlocal
     range with the Eulerian formulation runs :class:`~bsrflow.numerics.packing.StaggeredEulerianPacking`."""
     from ..physics.packing import MAX_RANGE_OVER_D
@@ -58,7 +58,7 @@ def parse_models(text: str):
             raise ValueError(f"--models: {item!r}: the formulation is not one of eulerian, lagrangian "
                              "(format FORMULATION:R_OVER_D, comma-separated)")
         try:
-            r = float(rng) if rng else (1.0 if form == "lagrangian" else 0.0)
+            r = float(rng) if rng else 1.0
         except ValueError:
             raise ValueError(f"--models: {item!r}: the range {rng!r} is not a number in [0, {MAX_RANGE_OVER_D:g}]") from None
         if not (math.isfinite(r) and 0.0 <= r <= MAX_RANGE_OVER_D):
@@ -323,9 +323,8 @@ def format_packing_table(result) -> str:
     return "\n".join(lines)
 
 
-DEMO_MODELS = (("lagrangian", 1.0), ("eulerian", 0.0))
-"""The packing models of ``make demo``: the nonlocal interaction (Lagrangian) and the local limit in
-the Eulerian formulation (the discretisation of the 2-D/3-D solvers)."""
+DEMO_MODELS = (("lagrangian", 1.0), ("eulerian", 1.0))
+"""The packing models of ``make demo``: the nonlocal interaction in both formulations."""
 
 
 def demo_packing(seed_result: dict, base: ColumnSetup, figures=None, models=DEMO_MODELS, log=print) -> dict:

@@ -151,9 +151,9 @@ FIELDS: tuple[_Field, ...] = (
            "times this factor (1: the DEM's own; smaller runs faster at a documented cost in "
            "accuracy)", "", 0, 1, lo_open=True),
     _Field("model", "range_over_d", "float", None, "packing only: the interaction range R in sphere "
-           "diameters (default, when absent: 1 with the lagrangian formulation, the nonlocal interaction over "
-           "one diameter; 0, the local limit, with the eulerian formulation; an eulerian run with R > 0 uses the "
-           "staggered grid with a tracked surface, docs/model.md)", "", 0, 4),
+           "diameters (default, when absent: 1, the nonlocal interaction over one diameter, in both "
+           "formulations; 0: its local limit; the eulerian formulation runs R > 0 on a staggered grid with a "
+           "tracked surface, R = 0 as finite volumes, docs/model.md)", "", 0, 4),
     _Field("model", "stiffness_mach", "float", 0.0, "packing only: if > 0, choose the stiffness "
            "factor so that the impact Mach number 3 a w / c is this (0.01: top maximum within 1 % and "
            "mass-centre RMS within 0.15 d of the true stiffness's (lagrangian, R = d), 1.5 % and 0.25 d "

@@ -8,7 +8,11 @@
   lives on the bonds.  In the local limit (``range_over_d = 0``) the bonds join neighbouring
   points (pair forces); with the nonlocal interaction (``range_over_d`` > 0, the package's packing
   continuum) they join points up to L = ppd R/d apart (:mod:`bsrflow.numerics.packing_nonlocal`).
-  The Eulerian formulation runs the local limit only.
+* :class:`StaggeredEulerianPacking` — formulation (a) of the nonlocal interaction: the mass in the
+  grid's cells, the velocity on its faces, a tracked free surface, the same bonds between the
+  grid's nodes, a staggered Lagrange-remap step (:mod:`bsrflow.numerics.packing_staggered`).
+  ``formulation = "eulerian"`` runs it for ``range_over_d`` > 0 (the default) and
+  :class:`EulerianPacking` for the local limit.
 
 Both expose the same interface to :func:`run_packing` (the controller): a state of named fields
 (``fields``; what checkpoints store), ``advance(t, t_stop)``, ``observe()`` (density and velocity

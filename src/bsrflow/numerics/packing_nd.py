@@ -770,7 +770,7 @@ def embedding_packing_error(dim, n_spheres=4, ppd=4, tap_start=0.005, t_end=0.07
 
     cfl = 0.4 / dim
     s = ColumnSetup(kernel_name="packing", formulation="eulerian", n_spheres=n_spheres, points_per_diameter=ppd,
-                    tap_start=tap_start, t_end=t_end, save_every=0.005, cfl=cfl)
+                    tap_start=tap_start, t_end=t_end, save_every=0.005, cfl=cfl, range_over_d=0.0)
     disc1 = s.packing_discretisation()
     saves = save_schedule(0.0, t_end, s.save_every)
     r1 = run_packing(disc1, t_end, saves)

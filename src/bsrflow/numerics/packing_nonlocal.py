@@ -13,10 +13,10 @@ the image of the material above, and a bond to an image point pushes its real en
 takes the reaction).  State: positions x [m], velocities v [m/s] (floor frame), the histories
 (L, points) [m].
 
-The Eulerian formulation (a) has no nonlocal form in the package: the finite-volume trial of
-``bench/check_nonlocal_eulerian.py`` loses the interaction's dispersion at the resolutions that
-can be afforded (docs/model.md).  :mod:`bsrflow.numerics.packing_reference` has a NumPy twin of
-every right-hand side and pass here.
+The Eulerian formulation (a) of the same bonds is :mod:`bsrflow.numerics.packing_staggered` (a
+staggered Lagrange-remap step with a tracked free surface; the finite-volume trial of
+``bench/check_nonlocal_eulerian.py`` lost the interaction's dispersion, docs/model.md).
+:mod:`bsrflow.numerics.packing_reference` has a NumPy twin of every right-hand side and pass here.
 """
 
 from __future__ import annotations

@@ -64,8 +64,8 @@ gained 11–14 % energy over a landing (docs/model.md, "The nonlocal interaction
 """Most bonds (histories) a nonlocal column may hold: 400 MB of history."""
 
 DEFAULT_RANGE_OVER_D = 1.0
-"""The packing interaction's default range R/d in the Lagrangian formulation: one diameter, the
-range of a sphere's contacts (docs/model.md, "The nonlocal interaction")."""
+"""The packing interaction's default range R/d in both formulations: one diameter, the range of a
+sphere's contacts (docs/model.md, "The nonlocal interaction")."""
 
 
 @dataclass
@@ -294,12 +294,12 @@ class ColumnSetup:
                                          self.diameter)
 
     def interaction_range(self) -> float:
-        """R/d of the packing interaction: ``range_over_d``, or if None the formulation's default,
-        1 for the Lagrangian formulation (the nonlocal interaction over one diameter,
-        docs/model.md) and 0 (the local limit) for the Eulerian one."""
+        """R/d of the packing interaction: ``range_over_d``, or if None 1 in both formulations (the
+        nonlocal interaction over one diameter, docs/model.md; before 2026-12-03 the Eulerian
+        formulation's default was 0, the local limit, its only range then)."""
         if self.range_over_d is not None:
             return float(self.range_over_d)
-        return DEFAULT_RANGE_OVER_D if self.formulation == "lagrangian" else 0.0
+        return DEFAULT_RANGE_OVER_D
 
     def packing_law(self):
         """The packing interaction of this column (:class:`bsrflow.physics.packing.PackingLaw`)."""
