@@ -7,8 +7,9 @@ For each case of the packing comparison: a run at the true contact stiffness K a
 factors :func:`bsrflow.physics.column.suggest_stiffness_factor` picks for each impact Mach number
 M; per run the top maximum's relative change, the change of its time, the mass-centre RMS
 difference against the true-stiffness run (in d), the number of steps and the wall time (this
-machine, one core).  ``--range``: the interaction range R/d (default: the formulation's, 1 for the
-Lagrangian formulation, 0 for the Eulerian one).  The documented bound of the model
+machine, one core).  ``--range``: the interaction range R/d (default: the column's, 1 in both
+formulations since 2026-12-03; the Eulerian runs of docs/results/ before then are of the local
+limit, R = 0).  The documented bound of the model
 (``STIFFNESS_ERROR_BOUNDS``, at M ≤ 0.01) is checked for every case and the largest errors are
 printed.
 """

@@ -110,10 +110,10 @@ class PackingLawND(BilinearStiffness, Interaction):
     def from_1d(cls, law):
         """The 1-D law (:class:`bsrflow.physics.packing.PackingLaw`) on a unit cross-section:
         the same numbers (the embedding check), its stiffness factor included; the local law only
-        (the nonlocal interaction, ``range_over_d`` > 0, is the 1-D Lagrangian formulation's)."""
+        (the nonlocal interaction, ``range_over_d`` > 0, is the 1-D formulations')."""
         if law.is_nonlocal:
             raise ValueError(f"range_over_d = {law.range_over_d!r} is outside the valid range [0, 0] of the "
-                             "n-D packing law (the nonlocal interaction is the 1-D lagrangian formulation's)")
+                             "n-D packing law (the nonlocal interaction runs in 1-D only, in both formulations)")
         return cls(law.stiffness, law.restitution, law.diameter, law.close_packing_density, law.particle_mass,
                    law.stiffness_factor)
 
