@@ -65,7 +65,7 @@ def test_formulations_agree_and_follow_the_dem_mass_centre():
         assert rms < 0.5
 
 
-@pytest.mark.parametrize("form,rng", [("lagrangian", None), ("lagrangian", 0.0), ("eulerian", 0.0)])
+@pytest.mark.parametrize("form,rng", [("lagrangian", None), ("lagrangian", 0.0), ("eulerian", None), ("eulerian", 0.0)])
 def test_stiffness_option_within_its_documented_bound(form, rng):
     s = ColumnSetup(**(SMALL | dict(n_spheres=20, t_end=0.9, tap_start=0.1)), formulation=form, range_over_d=rng)
     phi = suggest_stiffness_factor(s)

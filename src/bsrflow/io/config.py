@@ -156,8 +156,8 @@ FIELDS: tuple[_Field, ...] = (
            "tracked surface, R = 0 as finite volumes, docs/model.md)", "", 0, 4),
     _Field("model", "stiffness_mach", "float", 0.0, "packing only: if > 0, choose the stiffness "
            "factor so that the impact Mach number 3 a w / c is this (0.01: top maximum within 1 % and "
-           "mass-centre RMS within 0.15 d of the true stiffness's (lagrangian, R = d), 1.5 % and 0.25 d "
-           "(lagrangian, local), 1 % and 1.2 d (eulerian), measured; 0: off)", "", 0, 1),
+           "mass-centre RMS within 0.15 d of the true stiffness's (R = d, both formulations), 1.5 % and 0.25 d "
+           "(lagrangian, local), 1 % and 1.2 d (eulerian, local), measured; 0: off)", "", 0, 1),
     # [tap] -- half-sine displacement pulses of the floor
     _Field("tap", "a_over_d", "float", 0.75, "tap amplitude a in units of the sphere diameter "
            "(0: no tap)", "", 0, 20),

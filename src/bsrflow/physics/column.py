@@ -359,6 +359,7 @@ STIFFNESS_MACH = 0.01
 
 STIFFNESS_ERROR_BOUNDS = {
     "lagrangian R=1d": {"top_max_rel": 0.01, "mass_centre_rms_over_d": 0.15, "measured_at_mach_0.03": (0.014, 0.46)},
+    "eulerian R=1d": {"top_max_rel": 0.01, "mass_centre_rms_over_d": 0.15, "measured_at_mach_0.03": (0.013, 0.50)},
     "lagrangian local": {"top_max_rel": 0.015, "mass_centre_rms_over_d": 0.25, "measured_at_mach_0.03": (0.018, 0.46)},
     "eulerian local": {"top_max_rel": 0.01, "mass_centre_rms_over_d": 1.2, "measured_at_mach_0.03": (0.012, 1.35)},
 }
@@ -368,7 +369,9 @@ Measured on the 14 cases of the packing comparison (10 points per diameter) by `
 bench/packing_stiffness.py --formulation F [--range R]`` (docs/model.md, "Stiffness"; tested).
 The nonlocal interaction (R = d, ``--formulation lagrangian``): at most 0.51 % and 0.094 d at
 M = 0.01 (0.45 % and 0.025 d at M = 0.003; docs/results/packing_stiffness_nonlocal_2026-12-02.json),
-documented as 1 % and 0.15 d.  The local limit, Lagrangian: at most 1.07 % and
+documented as 1 % and 0.15 d; in the Eulerian formulation (``--formulation eulerian --range 1``,
+2026-12-03) at most 0.48 % and 0.093 d at M = 0.01 (0.17 % and 0.024 d at M = 0.003;
+docs/results/packing_stiffness_eulerian_nonlocal_2026-12-03.json), documented the same.  The local limit, Lagrangian: at most 1.07 % and
 0.20 d at M = 0.01 (0.34 % and 0.048 d at M = 0.003;
 docs/results/packing_stiffness_local_lagrangian_2026-12-02.json); Eulerian at most 0.87 % and 1.08 d at
 M = 0.01 (the three-tap a/d = 1.0 case; 0.38 d in the other 13), 0.26 % and 0.154 d at M = 0.003
@@ -396,7 +399,7 @@ def continuum_label(setup) -> str:
 def stiffness_model(setup) -> str:
     """The key of ``setup``'s packing model in :data:`STIFFNESS_ERROR_BOUNDS`
     (:func:`model_label`): 'lagrangian R=1d', 'lagrangian local' or 'eulerian local' (other
-    ranges have no bound)."""
+    ranges have no bound; 'eulerian R=1d' since 2026-12-03)."""
     return model_label(setup.formulation, setup.interaction_range())
 
 
