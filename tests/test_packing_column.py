@@ -299,3 +299,20 @@ def test_packing_column_refuses_a_contact_it_cannot_run_up_front(kw, name, why):
         lo, hi = (float(v) for v in re.search(r"\[([^,]+), ([^\]]+)\]", msg).groups())
         for v in (lo * 1.01, hi * 0.99):
             ColumnSetup(**{**base, name: v})
+
+
+@pytest.mark.parametrize("formulation, range_over_d, restitution, cls_name, cfl", [
+    ("eulerian", None, 0.9, "StaggeredEulerianPacking", 0.25),
+    ("eulerian", 0, 0.9, "EulerianPacking", 0.4),
+    ("lagrangian", None, 0.9, "LagrangianPacking", 0.5),
+    ("lagrangian", None, 1.0, "LagrangianPacking", 0.25),
+])
+def test_default_cfl_is_the_discretisations_own(formulation, range_over_d, restitution, cls_name, cfl):
+    """The CFL number a column runs with by default is its discretisation's ``default_cfl``, the
+    one the set-up's stiffness check counts the steps with (not a copy of its value)."""
+    setup = ColumnSetup(kernel_name="packing", formulation=formulation, range_over_d=range_over_d,
+                        restitution=restitution)
+    cls = setup.packing_class()
+    assert cls.__name__ == cls_name
+    assert cls.default_cfl(restitution) == cfl
+    assert setup.packing_discretisation().cfl == cfl

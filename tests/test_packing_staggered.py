@@ -52,6 +52,36 @@ def test_compiled_bond_forces_match_the_numpy_reference(seed, with_history):
         assert np.sum(force[:K + 2]) == pytest.approx(np.sum(images), rel=1e-10, abs=TOL * scale)
 
 
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_fused_pass_is_an_update_pass_then_a_force_pass(seed):
+    """UPDATE_AND_FORCES (the step's first pass) leaves the histories of an UPDATE pass and the
+    forces of a FORCES pass after it, bit for bit, and the update is idempotent (so repeating it
+    at the start of a call changes nothing)."""
+    law, mass, x, K, L, mu, hist, himg = _perturbed_state(seed)
+    x = x.copy()
+    x[1:K + 1] *= 1.0 - 2e-3 * np.sin(np.arange(1, K + 1))        # some bonds compressed, some open
+    n = mass.size + 4
+    args = (law.diameter, law.particle_mass, law.k1, law.k2, mu, L, pst.weight_norm(L))
+
+    def run(mode, h, hi):
+        force, cum, mnode = np.zeros(n), np.zeros(n), np.zeros(n)
+        pst.bond_forces(x, mass, K, *args, force, cum, mnode, h, hi, mode)
+        return force
+
+    h_seq, hi_seq = hist.copy(), himg.copy()
+    run(pst.UPDATE, h_seq, hi_seq)
+    f_seq = run(pst.FORCES, h_seq, hi_seq)
+    h_fused, hi_fused = hist.copy(), himg.copy()
+    f_fused = run(pst.UPDATE_AND_FORCES, h_fused, hi_fused)
+    assert not np.array_equal(h_seq, hist)                       # the update did something
+    np.testing.assert_array_equal(h_fused, h_seq)
+    np.testing.assert_array_equal(hi_fused, hi_seq)
+    np.testing.assert_array_equal(f_fused, f_seq)
+    run(pst.UPDATE, h_fused, hi_fused)
+    np.testing.assert_array_equal(h_fused, h_seq)
+    np.testing.assert_array_equal(hi_fused, hi_seq)
+
+
 def _image_forces(x, mass, K, law, mu, L):
     """The floor images' push alone (no histories), bond by bond."""
     norm = pst.weight_norm(L)

@@ -186,14 +186,16 @@ FIELDS: tuple[_Field, ...] = (
            "average every step, CFL 0.5) or \"accurate\" (four-stage RK4 rk4_0.4_0.25, CFL 0.2, "
            "sensor-switched dissipation)",
            choices=_SCHEMES),
-    _Field("numerics", "formulation", "str", None, "\"eulerian\" (finite volumes on the grid) or "
+    _Field("numerics", "formulation", "str", None, "\"eulerian\" (fields on the grid: for the packing kernel a staggered Lagrange-remap "
+           "form with range_over_d > 0, finite volumes with 0) or "
            "\"lagrangian\" (material points, density by characteristics; packing only); default, when "
            "absent: lagrangian for model.kernel = \"packing\", eulerian for the seed kernel (the only "
            "formulation it has)", choices=("eulerian", "lagrangian")),
     _Field("numerics", "points_per_diameter", "int", 10, "grid cells per sphere diameter (the "
            "interaction radius d must span at least 2 cells)", "", 2, 1000),
     _Field("numerics", "cfl", "float", None, "Courant number override (default: the preset's; the packing "
-           "kernel's: 0.4 eulerian, 0.5 lagrangian, 0.25 lagrangian with restitution 1); "
+           "kernel's: 0.25 eulerian, 0.4 eulerian with range_over_d = 0, 0.5 lagrangian, 0.25 lagrangian with "
+           "restitution 1); "
            "at most the chosen stepper's stability limit (packing: 0.5 eulerian, 0.9 lagrangian, 0.25 "
            "lagrangian with restitution 1)", "", 0, 4, lo_open=True),
     _Field("numerics", "stepper", "str", None, "Runge-Kutta stepper override (default: the "

@@ -72,6 +72,12 @@ class PackingResult:
 class _Base:
     supports: frozenset = frozenset()
     name = ""
+    DEFAULT_CFL = 0.4
+
+    @classmethod
+    def default_cfl(cls, restitution: float) -> float:
+        """The CFL number a run of this discretisation takes when none is given."""
+        return cls.DEFAULT_CFL
 
     def __init__(self, law: PackingLaw, grid: Grid1D, n_spheres: int, motion, gravity: float,
                  points_per_diameter: int, cfl: float):
@@ -115,9 +121,12 @@ class EulerianPacking(_Base):
 
     name = "eulerian"
     cfl_limit = 0.5
+    DEFAULT_CFL = 0.4
     supports = frozenset({"cfl", "points_per_diameter", "stiffness_factor", "save_every", "checkpoint_every"})
 
-    def __init__(self, law, grid, n_spheres, motion, gravity, points_per_diameter, cfl=0.4, rho0=None):
+    def __init__(self, law, grid, n_spheres, motion, gravity, points_per_diameter, cfl=None, rho0=None):
+        if cfl is None:
+            cfl = self.DEFAULT_CFL
         super().__init__(law, grid, n_spheres, motion, gravity, points_per_diameter, cfl)
         n = grid.n_cells
         if law.is_nonlocal:
@@ -301,9 +310,13 @@ class LagrangianPacking(_Base):
     supports = frozenset({"cfl", "points_per_diameter", "stiffness_factor", "range_over_d", "save_every",
                           "checkpoint_every"})
 
+    @classmethod
+    def default_cfl(cls, restitution: float) -> float:
+        return cls.DEFAULT_CFL_ELASTIC if restitution >= 1.0 else cls.DEFAULT_CFL
+
     def __init__(self, law, grid, n_spheres, motion, gravity, points_per_diameter, cfl=None):
         if cfl is None:
-            cfl = self.DEFAULT_CFL_ELASTIC if law.restitution >= 1.0 else self.DEFAULT_CFL
+            cfl = self.default_cfl(law.restitution)
         super().__init__(law, grid, n_spheres, motion, gravity, points_per_diameter, cfl)
         n_pts = self.n_spheres * self.ppd
         h = law.diameter / self.ppd

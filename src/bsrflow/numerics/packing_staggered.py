@@ -43,7 +43,10 @@ floor's reaction.
    conservative); the surface node stays where the Lagrangian step put it;
 3. the bonds' histories are carried with the material (first-order upwind in the lower node,
    at each lag, by the nodes' displacement) and updated as in the Lagrangian form: δ_max =
-   max(δ_max, δ) while the bond is compressed, 0 once it opens (δ ≤ 0).
+   max(δ_max, δ) while the bond is compressed, 0 once it opens (δ ≤ 0).  (The update is done in
+   the next step's first force pass, bond by bond before its force, which it leaves unchanged;
+   at the end of :func:`staggered_advance` by a pass of its own, so that the state it leaves is
+   current and its next call starts from the histories as they are.)
 
 No acoustic dissipation: the packed material is moved by the Lagrangian step (energy-conserving
 Verlet), and the remap moves it by the flow speed's displacement only (of order 1e-3 of a cell
@@ -67,6 +70,8 @@ __all__ = ["bond_forces", "bond_forces_numpy", "staggered_advance", "weight_norm
 
 # status codes of staggered_advance (counters[1])
 OK, BAD_CELL, DOMAIN_TOP = 0, 2, 3
+# what a pass of bond_forces does (its ``mode``)
+FORCES, UPDATE, UPDATE_AND_FORCES = 0, 1, 2
 
 
 def weight_norm(n_lags: int) -> float:
@@ -84,11 +89,15 @@ def _weight(s, mu, n_lags, norm):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def bond_forces(xn, mass, K, d, m_sph, k1, k2, mu, n_lags, norm, force, cum, mnode, hist, himg, update):
+def bond_forces(xn, mass, K, d, m_sph, k1, k2, mu, n_lags, norm, force, cum, mnode, hist, himg, mode):
     """Node forces [N] (``force[0..K+1]``) of the bonds, nodes 0..K at ``xn[0..K]`` and the
     surface node K + 1 at ``xn[K+1]``, cells 0..K of masses ``mass``; fills ``cum`` (the mass
-    below each node) and ``mnode`` (the nodes' masses).  With ``update`` the pass updates the
-    histories at this configuration instead (module docstring)."""
+    below each node) and ``mnode`` (the nodes' masses).  ``mode`` FORCES (0): the forces with
+    the histories as they are; UPDATE (1): only update the histories at this configuration
+    (module docstring, step 3); UPDATE_AND_FORCES (2): update each bond's history, then its force
+    with it (one pass; the forces are those of an UPDATE pass followed by a FORCES pass)."""
+    update = mode != FORCES
+    forces = mode != UPDATE
     cum[0] = 0.0
     for j in range(K + 1):
         cum[j + 1] = cum[j] + mass[j]
@@ -108,10 +117,10 @@ def bond_forces(xn, mass, K, d, m_sph, k1, k2, mu, n_lags, norm, force, cum, mno
             delta = d - m_sph * (xn[g] - xn[f]) / s
             lag = g - f
             hd = hist[lag - 1, f] if lag <= nl else 0.0
-            if update:
-                if lag <= nl:
-                    hist[lag - 1, f] = history_update(delta, hd)
-            elif delta > 0.0:
+            if update and lag <= nl:
+                hd = history_update(delta, hd)
+                hist[lag - 1, f] = hd
+            if forces and delta > 0.0:
                 p = _weight(s, mu, n_lags, norm) * mnode[f] * mnode[g] / (mu * mu) * packing_force(delta, hd, k1, k2)
                 force[g] += p
                 force[f] -= p
@@ -123,10 +132,10 @@ def bond_forces(xn, mass, K, d, m_sph, k1, k2, mu, n_lags, norm, force, cum, mno
             delta = d - m_sph * (xn[g] + xn[h]) / s
             inside = g < himg.shape[0] and h < himg.shape[1]
             hd = himg[g, h] if inside else 0.0
-            if update:
-                if inside:
-                    himg[g, h] = history_update(delta, hd)
-            elif delta > 0.0:
+            if update and inside:
+                hd = history_update(delta, hd)
+                himg[g, h] = hd
+            if forces and delta > 0.0:
                 force[g] += _weight(s, mu, n_lags, norm) * mnode[g] * mnode[h] / (mu * mu) * packing_force(delta, hd,
                                                                                                         k1, k2)
 
@@ -201,6 +210,7 @@ def staggered_advance(mass, v, hist, himg, surf, t, t_stop, dt, dx, d, m_sph, k1
     vface = np.zeros(n + 2)
     hcol = np.zeros(n + 2)
     nl = hist.shape[0]
+    first = True
     while t < t_stop:
         h = dt
         last = False
@@ -215,14 +225,19 @@ def staggered_advance(mass, v, hist, himg, surf, t, t_stop, dt, dx, d, m_sph, k1
         vn[0] = 0.0
         # 1. the Lagrangian step: velocity Verlet of the nodes
         g0 = -gravity - fn(t, params)[2]
-        bond_forces(xn, mass, K, d, m_sph, k1, k2, mu, n_lags, norm, force, cum, mnode, hist, himg, False)
+        # the previous step's history update (step 3) at this configuration and the forces, in one
+        # pass; at the call's first step the histories are the state's as given (the initial
+        # ones, or those updated at the end of the call that left the state)
+        bond_forces(xn, mass, K, d, m_sph, k1, k2, mu, n_lags, norm, force, cum, mnode, hist, himg,
+                    FORCES if first else UPDATE_AND_FORCES)
+        first = False
         for f in range(1, K + 2):
             vn[f] += 0.5 * h * (force[f] / mnode[f] + g0)
         for f in range(K + 2):
             y[f] = xn[f] + h * vn[f]
         y[0] = 0.0
         g1 = -gravity - fn(t + h, params)[2]
-        bond_forces(y, mass, K, d, m_sph, k1, k2, mu, n_lags, norm, force, cum, mnode, hist, himg, False)
+        bond_forces(y, mass, K, d, m_sph, k1, k2, mu, n_lags, norm, force, cum, mnode, hist, himg, FORCES)
         for f in range(1, K + 2):
             vn[f] += 0.5 * h * (force[f] / mnode[f] + g1)
         # 2. the remap of the cells' masses to the fixed faces
@@ -303,10 +318,7 @@ def staggered_advance(mass, v, hist, himg, surf, t, t_stop, dt, dx, d, m_sph, k1
                 if old <= nl:
                     hist[old - 2, f] = hist[old - 1, f]
             K -= 1
-        for f in range(K + 1):
-            xn[f] = f * dx
-        xn[K + 1] = X
-        bond_forces(xn, mass, K, d, m_sph, k1, k2, mu, n_lags, norm, force, cum, mnode, hist, himg, True)
+        # (the histories' update at the new configuration is the next step's first pass)
         t = t_stop if last else t + h
         counters[0] += 1
         bad = -1
@@ -320,6 +332,13 @@ def staggered_advance(mass, v, hist, himg, surf, t, t_stop, dt, dx, d, m_sph, k1
             counters[1] = BAD_CELL
             counters[2] = bad
             break
+    if counters[1] == OK:
+        # the histories at the configuration reached, as the state to save (the next step's
+        # first pass repeats this update, a no-op)
+        for f in range(K + 1):
+            xn[f] = f * dx
+        xn[K + 1] = X
+        bond_forces(xn, mass, K, d, m_sph, k1, k2, mu, n_lags, norm, force, cum, mnode, hist, himg, UPDATE)
     surf[0] = K
     surf[1] = X
     surf[2] = vs

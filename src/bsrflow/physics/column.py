@@ -83,14 +83,14 @@ class ColumnSetup:
     "packing" (the contact law's continuum, :mod:`bsrflow.physics.packing`; m0, ε and scheme
     do not enter); formulation: "eulerian" or "lagrangian" (packing only); stiffness_factor in
     (0, 1]: the packing law's stiffness K·factor (the reduced-stiffness option); cfl: the
-    packing discretisation's CFL number (default 0.4 Eulerian, 0.5 Lagrangian, 0.25 Lagrangian
-    with e = 1: :class:`~bsrflow.numerics.packing.LagrangianPacking`); range_over_d: the
-    packing interaction's range R/d (:meth:`interaction_range`; None: the formulation's default,
-    1 (nonlocal, R = d) for the Lagrangian formulation, 0 (the local limit) for the Eulerian one,
-    which supports only 0; a nonzero R must be a whole number of point spacings k/ppd).
+    packing discretisation's CFL number (None: the discretisation's ``default_cfl``, 0.25
+    Eulerian (R > 0), 0.4 Eulerian local limit, 0.5 Lagrangian, 0.25 Lagrangian with e = 1;
+    :meth:`packing_class`); range_over_d: the packing interaction's range R/d
+    (:meth:`interaction_range`; None: 1, R = d, in both formulations; 0: the local limit; a
+    nonzero R must be a whole number of point spacings k/ppd).
     Note: ``formulation`` defaults to "eulerian" here (the seed kernel's grid), so
-    ``ColumnSetup(kernel_name="packing")`` is the Eulerian local limit; the package's packing
-    continuum is ``formulation="lagrangian"`` (R = d), which a config gets by default.
+    ``ColumnSetup(kernel_name="packing")`` is the staggered Eulerian form of the nonlocal
+    interaction (R = d); a config's packing column is ``formulation="lagrangian"`` by default.
     """
 
     n_spheres: int = 20
@@ -186,7 +186,7 @@ class ColumnSetup:
             if self.kernel_name == "seed":
                 raise ValueError("cfl is an option of the packing kernel only (the seed kernel's CFL number "
                                  "is the scheme's)")
-            lim = 0.5 if self.formulation == "eulerian" else 0.9
+            lim = self.packing_class().cfl_limit
             elastic = self.formulation == "lagrangian" and self.restitution >= 1.0
             if elastic:
                 lim = MAX_CFL_ELASTIC
@@ -213,12 +213,7 @@ class ColumnSetup:
         weight = self.n_spheres * self.particle_mass * self.gravity          # stress at the floor [N]
         overlap = weight / k_used                                             # δ = P/K1 [m]
         k_min = weight / (MAX_STATIC_OVERLAP * self.diameter)
-        if self.cfl is not None:
-            cfl = self.cfl
-        elif self.formulation == "eulerian":
-            cfl = 0.4
-        else:
-            cfl = 0.25 if self.restitution >= 1.0 else 0.5
+        cfl = self.cfl if self.cfl is not None else self.packing_class().default_cfl(self.restitution)
         dx = self.diameter / self.points_per_diameter
         c_per_root_k = self.diameter / (self.restitution * math.sqrt(self.particle_mass))   # c = d √(K/(e² m))
         steps = self.t_end * c_per_root_k * math.sqrt(k_used) / (cfl * dx)
@@ -307,20 +302,25 @@ class ColumnSetup:
         return PackingLaw(self.stiffness, self.restitution, self.diameter, self.density, self.stiffness_factor,
                           self.interaction_range())
 
+    def packing_class(self):
+        """The class of :meth:`packing_discretisation`: LagrangianPacking, StaggeredEulerianPacking
+        (Eulerian, R > 0) or EulerianPacking (Eulerian, the local limit R = 0)."""
+        from ..numerics.packing import EulerianPacking, LagrangianPacking, StaggeredEulerianPacking
+        if self.formulation == "lagrangian":
+            return LagrangianPacking
+        return StaggeredEulerianPacking if self.interaction_range() > 0 else EulerianPacking
+
     def packing_discretisation(self):
         """The packing continuum's discretisation of this column, at rest at close packing
-        (ρ = m/d on [0, N d]): :class:`~bsrflow.numerics.packing.EulerianPacking` or
-        :class:`~bsrflow.numerics.packing.LagrangianPacking`."""
-        from ..numerics.packing import EulerianPacking, LagrangianPacking, StaggeredEulerianPacking
+        (ρ = m/d on [0, N d]), an instance of :meth:`packing_class`."""
+        from ..numerics.packing import EulerianPacking
         law, grid = self.packing_law(), self.grid()
         args = (law, grid, self.n_spheres, self.motion(), self.gravity, self.points_per_diameter)
         kw = {} if self.cfl is None else {"cfl": self.cfl}
-        if self.formulation == "lagrangian":
-            return LagrangianPacking(*args, **kw)
-        if law.is_nonlocal:
-            return StaggeredEulerianPacking(*args, **kw)
-        rho0 = np.where(grid.x < self.n_spheres * self.diameter, law.close_packing_density, 0.0)
-        return EulerianPacking(*args, rho0=rho0, **kw)
+        cls = self.packing_class()
+        if cls is EulerianPacking:
+            kw["rho0"] = np.where(grid.x < self.n_spheres * self.diameter, law.close_packing_density, 0.0)
+        return cls(*args, **kw)
 
     def model(self) -> BSRModel:
         return BSRModel(kernel=self.kernel(), motion=self.motion(), gravity=self.gravity)
