@@ -14,9 +14,10 @@ BASE = ('[model]\nkernel = "packing"\n[numerics]\nformulation = "{form}"\n'
 def _config_text(form):
     """The config of ``form``: eulerian (the local limit, R = 0: finite volumes), lagrangian, or
     eulerian_nonlocal (the default range R = d: the staggered grid with a tracked surface)."""
-    if form == "eulerian":                       # the local limit's finite volumes
-        return BASE.format(form="eulerian").replace('kernel = "packing"\n', 'kernel = "packing"\nrange_over_d = 0.0\n')
-    if form == "eulerian_nonlocal":              # 6 spheres: the form costs 20-30x the Lagrangian one
+    if form == "eulerian":                       # the local limit's finite volumes; 6 spheres (its cost)
+        return (BASE.format(form="eulerian").replace('kernel = "packing"\n', 'kernel = "packing"\nrange_over_d = 0.0\n')
+                + "[column]\nn_spheres = 6\n")
+    if form == "eulerian_nonlocal":              # 6 spheres: the form costs 13-30x the Lagrangian one
         return BASE.format(form="eulerian") + "[column]\nn_spheres = 6\n"
     return BASE.format(form=form)
 
