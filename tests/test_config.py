@@ -175,6 +175,8 @@ INVALID = [
     ("restitution_above_one", merged(column={"restitution": 1.5}), "column.restitution"),
     ("m0_negative", merged(column={"m0": -406.0}), "column.m0"),
     ("m0_tiny_domain_too_tall", merged(column={"m0": 1e-9}), "column.m0"),
+    ("stiffness_seed_settles_below_one_diameter", merged(column={"stiffness": 1e3}), "column.stiffness"),
+    ("m0_seed_settles_below_one_diameter", merged(column={"m0": 1e6}), "column.m0"),
     ("kernel_dissipation_one", merged(column={"kernel_dissipation": 1.0}), "column.kernel_dissipation"),
     ("kernel_dissipation_negative", merged(column={"kernel_dissipation": -0.1}), "column.kernel_dissipation"),
     ("gravity_zero", merged(column={"gravity": 0.0}), "column.gravity"),
@@ -226,7 +228,10 @@ SUGGESTS = {"unknown_table": "did you mean [tap]", "misspelt_key": "did you mean
             "scheme_unknown": "seed", "cfl_above_kutta3_filter": "2.3388", "cfl_above_euler_filter": "0.7071",
             "cfl_above_kutta3_nofilter": "1.7321", "ppd_one": "2 cells",
             "n_spheres_float": "float", "n_spheres_string": "string", "n_spheres_bool": "boolean",
-            "kernel_dissipation_one": "[0, 1)", "restitution_zero": "[0.01, 1]"}
+            "kernel_dissipation_one": "[0, 1)", "restitution_zero": "[0.01, 1]",
+            "stiffness_seed_settles_below_one_diameter": "[9.052e+04, 1e+12] N/m here: the seed kernel's continuum "
+                                                         "would settle under its weight to sqrt(2 N d c0^2/g) = 0.105 d",
+            "m0_seed_settles_below_one_diameter": "[1e-12, 6.127e+04] kg"}
 
 
 def _write(tmp_path, name, cfg):

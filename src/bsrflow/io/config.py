@@ -131,7 +131,8 @@ FIELDS: tuple[_Field, ...] = (
     _Field("column", "density", "float", 1200.0, "density of the sphere material", "kg/m3", 1, 1e5),
     _Field("column", "stiffness", "float", 1.366e7, "contact stiffness K (DEM loading; the kernel's K; the "
            "packing kernel also needs the column's weight to overlap its bottom contact by at most 0.05 d and "
-           "at most 1e9 steps, and names the range at the settings when not)", "N/m", 1e-3, 1e12),
+           "at most 1e9 steps, the seed kernel its column settled under its weight at least 1 d tall, K >= "
+           "3 m0 g/(2 N d); each names the range at the settings when not)", "N/m", 1e-3, 1e12),
     _Field("column", "restitution", "float", 0.9, "coefficient of restitution e of the DEM contacts "
            "(and of the packing law; the seed kernel's continuum does not use it)", "", 0.01, 1),
     _Field("column", "m0", "float", 406.0,
@@ -568,6 +569,8 @@ class Config:
         v = self._values
         # the column (ColumnSetup validates again; its messages are renamed to dotted fields)
         setup = self.column_setup(domain_height=None)
+        if v["model.kernel"] == "seed":
+            self._check_seed_settled_height(setup)
         if v["numerics.domain_height"] is not None:
             need = setup.energy_bound_height()
             if v["numerics.domain_height"] < need:
@@ -589,6 +592,31 @@ class Config:
             raise ConfigError("column.diameter", f"{v['column.diameter']!r} m is too small for the domain "
                               f"height {H:.4g} m: even 2 cells per diameter give {2 * H / v['column.diameter']:.3g} "
                               f"cells (at most {_MAX_CELLS})", v["column.diameter"])
+
+    def _check_seed_settled_height(self, setup):
+        """The seed kernel's continuum is a γ = 2 gas: at rest under gravity it settles to the height
+        H_s = sqrt(2 N d c0²/g) (c0 = sqrt(K d²/(3 m0)), its sound speed at the stacked density;
+        density linear in height).  Below one diameter the column of N spheres would be squeezed
+        into less than one sphere; the run then ends in a gradient catastrophe (K = 1e3 N/m at the
+        defaults: H_s = 0.27 d, stopped at t = 0.41 s; 3e3 N/m, H_s = 0.47 d, still ran).  Refused,
+        naming column.m0 when it was set and the stiffness was not, else column.stiffness."""
+        v = self._values
+        n, d, g = v["column.n_spheres"], v["column.diameter"], v["column.gravity"]
+        c0 = setup.sound_speed()
+        h_s = math.sqrt(2.0 * n * d * c0 * c0 / g)
+        if h_s >= d:
+            return
+        problem = (f"the seed kernel's continuum would settle under its weight to "
+                   f"sqrt(2 N d c0^2/g) = {h_s / d:.3g} d (c0 = sqrt(K d^2/(3 m0)) = {c0:.3g} m/s; at least 1 d)")
+        k_min = 3.0 * v["column.m0"] * g / (2.0 * n * d)
+        m0_max = 2.0 * n * d * v["column.stiffness"] / (3.0 * g)
+        if "column.m0" in self._given and "column.stiffness" not in self._given and m0_max >= 1e-12:
+            rng = f"[1e-12, {m0_max:.4g}] kg"
+            raise ConfigError("column.m0", f"{v['column.m0']!r} is outside the valid range {rng} here: {problem}",
+                              v["column.m0"], rng)
+        rng = f"[{max(k_min, 1e-3):.4g}, 1e+12] N/m"
+        raise ConfigError("column.stiffness", f"{v['column.stiffness']!r} is outside the valid range {rng} here: "
+                          f"{problem}", v["column.stiffness"], rng)
 
     def _height_error(self, setup, H) -> ConfigError:
         """The energy-bound domain is taller than _MAX_HEIGHT: name the dominating cause."""
