@@ -322,3 +322,30 @@ def test_a_config_that_is_not_utf8_is_named_on_the_command_line(tmp_path, capsys
     assert main(["run", str(path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and f"error: {path}: invalid TOML: the file is not UTF-8 text" in err[0], err
+
+
+@pytest.mark.parametrize("tap, t_end, note", [
+    ({"start": 0.02}, 0.1, None),
+    ({"start": 0.2}, 0.1, "1 of the 1 tap(s) start at or after run.t_end = 0.1 s"),
+    ({"start": 0.02, "n_taps": 3, "period": 0.05}, 0.1, "1 of the 3 tap(s) start at or after run.t_end = 0.1 s"),
+    ({"start": 0.02, "n_taps": 2, "period": 0.05}, 0.1, None),
+    ({"start": 0.2, "n_taps": 0}, 0.1, None),
+])
+def test_taps_the_run_never_reaches_are_noted(tap, t_end, note):
+    """A tap starting at or after run.t_end is not silently dropped: `bsrflow run` prints the
+    note on stderr (not an error: a settling run of the defaults ends before the default tap)."""
+    cfg = Config.from_dict(merged(tap=tap, run={"t_end": t_end, "save_every": 0.01}))
+    got = cfg.taps_not_reached()
+    if note is None:
+        assert got is None
+    else:
+        assert got.startswith("note: " + note) and "\n" not in got
+
+
+def test_run_prints_the_taps_note_on_stderr(tmp_path, capsys):
+    path = tmp_path / "c.toml"
+    path.write_text("[column]\nn_spheres = 3\n[tap]\nstart = 0.2\n[run]\nt_end = 0.02\nsave_every = 0.01\n"
+                    "[numerics]\npoints_per_diameter = 4\n")
+    assert main(["run", str(path), "--out", str(tmp_path / "c.nc"), "--quiet"]) == 0
+    err = capsys.readouterr().err
+    assert err.startswith("bsrflow run: note: 1 of the 1 tap(s) start at or after run.t_end = 0.02 s")

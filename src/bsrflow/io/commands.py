@@ -268,6 +268,9 @@ def _run(args) -> int:
                               "continuum has its own discretisation (numerics.formulation): leave it out")
     out = _output_path(args)
     quiet = bool(args.quiet)
+    note = config.taps_not_reached()
+    if note:
+        print(f"bsrflow run: {note}", file=sys.stderr, flush=True)
     progress, close_bar = _progress_bar(config.run.t_end, not quiet and sys.stderr.isatty())
 
     def log(msg):

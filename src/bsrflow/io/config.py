@@ -593,6 +593,20 @@ class Config:
                               f"height {H:.4g} m: even 2 cells per diameter give {2 * H / v['column.diameter']:.3g} "
                               f"cells (at most {_MAX_CELLS})", v["column.diameter"])
 
+    def taps_not_reached(self) -> str | None:
+        """A one-line note when some of the config's taps start at or after ``run.t_end`` (the run
+        ends before them), else None.  Not an error: a short run of the defaults (a settling run)
+        ends before the default tap at 0.4 s, and ``bsrflow init`` writes every field."""
+        v = self._values
+        n, start, period, t_end = v["tap.n_taps"], v["tap.start"], v["tap.period"], v["run.t_end"]
+        if n < 1:
+            return None
+        reached = 0 if start >= t_end else min(n, max(1, math.ceil((t_end - start) / period)))
+        if reached == n:
+            return None
+        return (f"note: {n - reached} of the {n} tap(s) start at or after run.t_end = {t_end:g} s (tap.start = "
+                f"{start:g} s, tap.period = {period:g} s); the run ends before them")
+
     def _check_seed_settled_height(self, setup):
         """The seed kernel's continuum is a γ = 2 gas: at rest under gravity it settles to the height
         H_s = sqrt(2 N d c0²/g) (c0 = sqrt(K d²/(3 m0)), its sound speed at the stacked density;
