@@ -594,12 +594,14 @@ class Config:
                               f"cells (at most {_MAX_CELLS})", v["column.diameter"])
 
     def taps_not_reached(self) -> str | None:
-        """A one-line note when some of the config's taps start at or after ``run.t_end`` (the run
-        ends before them), else None.  Not an error: a short run of the defaults (a settling run)
-        ends before the default tap at 0.4 s, and ``bsrflow init`` writes every field."""
+        """A one-line note when some of the taps the config sets (tap.start, tap.n_taps or
+        tap.period given) start at or after ``run.t_end`` (the run ends before them), else None.
+        Not an error (``bsrflow init`` writes every field, so a settling run made from such a file
+        has them), and nothing for the default tap at 0.4 s that a short run of the defaults
+        never reaches."""
         v = self._values
         n, start, period, t_end = v["tap.n_taps"], v["tap.start"], v["tap.period"], v["run.t_end"]
-        if n < 1:
+        if n < 1 or not {"tap.start", "tap.n_taps", "tap.period"} & self._given:
             return None
         reached = 0 if start >= t_end else min(n, max(1, math.ceil((t_end - start) / period)))
         if reached == n:
