@@ -80,7 +80,9 @@ class _Base:
         return cls.DEFAULT_CFL
 
     def __init__(self, law: PackingLaw, grid: Grid1D, n_spheres: int, motion, gravity: float,
-                 points_per_diameter: int, cfl: float):
+                 points_per_diameter: int, cfl: float | None):
+        if cfl is None:
+            cfl = self.default_cfl(law.restitution)
         if not isinstance(grid, Grid1D) or grid.bc_lower != "floor" or grid.bc_upper != "vacuum" or grid.lower != 0.0:
             raise ValueError("grid must be a Grid1D from 0 with a floor below and a vacuum top")
         if not (0.0 < cfl <= self.cfl_limit):
@@ -117,7 +119,9 @@ class _Base:
 
 
 class EulerianPacking(_Base):
-    """Formulation (a): finite volumes on ``grid`` (module docstring)."""
+    """Formulation (a): finite volumes on ``grid`` (module docstring).  ``rho0`` [kg/m] the initial
+    density on the grid's cells; None: at rest at close packing on [0, N d], as the other
+    discretisations start."""
 
     name = "eulerian"
     cfl_limit = 0.5
@@ -125,16 +129,15 @@ class EulerianPacking(_Base):
     supports = frozenset({"cfl", "points_per_diameter", "stiffness_factor", "save_every", "checkpoint_every"})
 
     def __init__(self, law, grid, n_spheres, motion, gravity, points_per_diameter, cfl=None, rho0=None):
-        if cfl is None:
-            cfl = self.DEFAULT_CFL
         super().__init__(law, grid, n_spheres, motion, gravity, points_per_diameter, cfl)
         n = grid.n_cells
         if law.is_nonlocal:
             raise ValueError(f"range_over_d = {law.range_over_d!r}: EulerianPacking runs the local limit "
                              "(range_over_d = 0); the nonlocal interaction's Eulerian form is StaggeredEulerianPacking")
         self.q = np.zeros((3, n + 2 * pk.NG))
-        if rho0 is not None:
-            self.q[pk.RHO, pk.NG:pk.NG + n] = rho0
+        if rho0 is None:
+            rho0 = np.where(grid.x < self.n_spheres * law.diameter, law.close_packing_density, 0.0)
+        self.q[pk.RHO, pk.NG:pk.NG + n] = rho0
         rc = law.close_packing_density
         self.rho_tiny = 1e-12 * rc
         self.rho_floor = 1e-30 * rc
@@ -199,8 +202,6 @@ class StaggeredEulerianPacking(_Base):
                           "checkpoint_every"})
 
     def __init__(self, law, grid, n_spheres, motion, gravity, points_per_diameter, cfl=None):
-        if cfl is None:
-            cfl = self.DEFAULT_CFL
         super().__init__(law, grid, n_spheres, motion, gravity, points_per_diameter, cfl)
         if not law.is_nonlocal:
             raise ValueError("StaggeredEulerianPacking runs the nonlocal interaction (range_over_d > 0); the local "
@@ -315,8 +316,6 @@ class LagrangianPacking(_Base):
         return cls.DEFAULT_CFL_ELASTIC if restitution >= 1.0 else cls.DEFAULT_CFL
 
     def __init__(self, law, grid, n_spheres, motion, gravity, points_per_diameter, cfl=None):
-        if cfl is None:
-            cfl = self.default_cfl(law.restitution)
         super().__init__(law, grid, n_spheres, motion, gravity, points_per_diameter, cfl)
         n_pts = self.n_spheres * self.ppd
         h = law.diameter / self.ppd

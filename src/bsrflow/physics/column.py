@@ -313,14 +313,8 @@ class ColumnSetup:
     def packing_discretisation(self):
         """The packing continuum's discretisation of this column, at rest at close packing
         (ρ = m/d on [0, N d]), an instance of :meth:`packing_class`."""
-        from ..numerics.packing import EulerianPacking
-        law, grid = self.packing_law(), self.grid()
-        args = (law, grid, self.n_spheres, self.motion(), self.gravity, self.points_per_diameter)
-        kw = {} if self.cfl is None else {"cfl": self.cfl}
-        cls = self.packing_class()
-        if cls is EulerianPacking:
-            kw["rho0"] = np.where(grid.x < self.n_spheres * self.diameter, law.close_packing_density, 0.0)
-        return cls(*args, **kw)
+        return self.packing_class()(self.packing_law(), self.grid(), self.n_spheres, self.motion(), self.gravity,
+                                    self.points_per_diameter, cfl=self.cfl)
 
     def model(self) -> BSRModel:
         return BSRModel(kernel=self.kernel(), motion=self.motion(), gravity=self.gravity)
