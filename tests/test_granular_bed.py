@@ -79,8 +79,8 @@ def test_compiled_step_matches_numpy(on_floor):
     ref = bed_step_numpy(zf, vf, th, hist, dt, gl, mu, s.density, s.diameter, s.restitution, s.phi_c, k1, k2)
     n = th.size
     z, v, t, hh = zf.copy(), vf.copy(), th.copy(), hist.copy()
-    r, status = bed_step(z, v, t, hh, np.empty(n), np.empty(n), np.empty(n + 1), dt, gl, mu, s.density, s.diameter,
-                         s.restitution, s.phi_c, k1, k2)
+    r, status, _ = bed_step(z, v, t, hh, np.empty(n), np.empty(n), np.empty(n + 1), np.empty(n + 1), dt, gl, mu,
+                            s.density, s.diameter, s.restitution, s.phi_c, k1, k2, s.cfl, s.contact_wave_speed())
     assert status == 0
     for a, b in zip((z, v, t, hh, r), ref):
         np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-300)
@@ -186,3 +186,30 @@ def test_mean_flight_counts_back_from_the_last_finished_flight():
     assert np.nanmean(tau[-6:]) == pytest.approx(0.032)          # the old rule's bias
     assert list(last_complete_flights([0.03, None, 0.04], n=6)) == [0.03, 0.04]
     assert period_doubling_measure(last)["period_doubled"]
+
+
+def test_step_bound_is_the_states_and_follows_the_formula():
+    """The Δt bound is recomputed at every step (not once per save): a step of Δt = 0 returns
+    stable_dt's bound of the same state, and both are the cell-by-cell formula of the module
+    docstring (contact CFL, half the viscous and conduction limits)."""
+    from bsrflow.numerics.bed_lagrangian import stable_dt
+    rng = np.random.default_rng(5)
+    s, mu, zf, vf, th, hist, k1 = _state(rng, on_floor=True)
+    th *= 50.0                                   # a hot bed: the transport limits bind somewhere
+    n, c = th.size, s.contact_wave_speed()
+    b0 = stable_dt(zf, th, mu, s.density, s.diameter, s.restitution, s.cfl, c)
+    _, status, b1 = bed_step(zf.copy(), vf.copy(), th.copy(), hist.copy(), np.empty(n), np.empty(n), np.empty(n + 1),
+                             np.empty(n + 1), 0.0, s.gravity, mu, s.density, s.diameter, s.restitution, s.phi_c, k1,
+                             k1 / s.restitution ** 2, s.cfl, c)
+    assert status == 0 and b1 == pytest.approx(b0, rel=1e-14)
+    sz = np.diff(zf)
+    phi = mu / (s.density * sz)
+    co = gb.constitutive_numpy(phi, th, s.density, s.diameter, s.restitution)
+    zeta = co["lambda"] + 4.0 / 3.0 * co["mu"]
+    phf = 0.5 * (phi[:-1] + phi[1:])
+    thf = 0.5 * (th[:-1] + th[1:])
+    g = np.zeros(n + 1)
+    g[1:n] = gb.constitutive_numpy(phf, thf, s.density, s.diameter, s.restitution)["kappa"] / (0.5 * (sz[:-1] + sz[1:]))
+    expect = np.min(np.minimum.reduce([s.cfl * sz / c, 0.25 * mu * sz / zeta, 0.75 * mu / (g[:-1] + g[1:])]))
+    assert b0 == pytest.approx(expect, rel=1e-12)
+    assert expect < np.min(s.cfl * sz / c)        # a transport limit is the binding one here

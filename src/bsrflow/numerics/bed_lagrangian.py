@@ -22,11 +22,16 @@ One step of length Δt (``bed_step``; symplectic Euler for the faces, then the e
    exactly over the step (θ̇ = −A θ^{3/2}: θ ← θ / (1 + A Δt √θ / 2)²), then the history pass
    δ_max ← max(δ_max, δ) (0 where δ ≤ 0).
 
-Mass is exact (fixed μ per cell).  Time step, set by the driver at every save (every
-``save_every``, 10⁻⁴ s by default): Δt = cfl · min_j(s_j)/c with c the contact wave speed at close
-packing (the fastest signal: the kinetic sound speed, ~√θ, is two orders below it), and at most
-a quarter of the explicit limits of the conduction, (3μ/2) s/(2κ), and of the viscous stress,
-μ s/(2ζ) with ζ = λ + 4μ_s/3, at the state of that moment.
+Mass is exact (fixed μ per cell).  Time step, per step: each step's Δt is the bound its
+previous step returned (the first from :func:`stable_dt`), the smallest over the cells of
+cfl · s_j/c, with c the contact wave speed at close packing (the fastest signal: the kinetic sound
+speed, ~√θ, is two orders below it), and half the explicit limits of the viscous stress,
+μ s_j/(2ζ_j) with ζ = λ + 4μ_s/3, and of the conduction, (3μ/2)/(κ_f/h_f + κ_f+1/h_f+1) over
+the cell's two faces (h_f the distance of the cell centres across face f), so a state whose
+viscosity or conductivity grows fast (a denser bed, a larger contact value g0) shortens the step
+at once.  (Before 2026-12-03 the bound was set once per save, every 10⁻⁴ s, from the smallest
+cell and the largest coefficients, with the same two halves; a one-off run with a larger g0
+outran it.)
 
 :func:`bed_step_numpy` is the plain NumPy twin of :func:`bed_step` (tests: agreement to 1e-12).
 """
@@ -42,22 +47,31 @@ from ..physics.granular_bed import (conductivity, constitutive_numpy, dissipatio
                                     wall_loss)
 from ..physics.packing import history_update, packing_force, packing_force_numpy
 
-__all__ = ["bed_step", "bed_advance", "bed_step_numpy", "floor_reaction", "static_bed", "run_bed",
+__all__ = ["bed_step", "bed_advance", "stable_dt", "bed_step_numpy", "floor_reaction", "static_bed", "run_bed",
            "BedResult"]
 
 
 @numba.njit(cache=True)
-def bed_step(zf, vf, th, hist, sig, pq, flux, dt, gl, mu, rho_s, d, e, phi_c, k1, k2):
-    """One step (module docstring), in place.  Returns (floor reaction R [Pa], status); status
-    1: a cell's thickness reached 0."""
+def bed_step(zf, vf, th, hist, sig, pq, flux, cond, dt, gl, mu, rho_s, d, e, phi_c, k1, k2, cfl, c):
+    """One step (module docstring), in place; ``sig``, ``pq`` (n), ``flux``, ``cond`` (n + 1) are
+    work arrays.  Returns (floor reaction R [Pa], status, Δt bound [s]); status 1: a cell's
+    thickness reached 0.  The bound, the next step's Δt, is the smallest over the cells of the
+    contact wave's cfl s_j/c and half the explicit limits of the viscous stress, μ s_j/(2ζ_j),
+    and of the conduction, (3μ/2)/(κ_f/h_f + κ_f+1/h_f+1) over the cell's two faces (h the
+    distance of the cell centres), with ζ and κ as this step used them."""
     n = th.shape[0]
+    s_min = 1e300
+    zeta_s_max = 0.0          # max ζ_j/s_j
     for j in range(n):
         s = zf[j + 1] - zf[j]
         phi = mu / (rho_s * s)
         p, zeta = pressure_and_viscosity(phi, th[j], rho_s, d, e)
-        q = -zeta * (vf[j + 1] - vf[j]) / s
+        zs = zeta / s
+        q = -zs * (vf[j + 1] - vf[j])
         pq[j] = p + q
         sig[j] = p + q + packing_force(d * (1.0 - phi_c / phi), hist[j], k1, k2)
+        s_min = min(s_min, s)
+        zeta_s_max = max(zeta_s_max, zs)
     m_half = 0.5 * mu
     for f in range(1, n):
         vf[f] += dt * ((sig[f - 1] - sig[f]) / mu - gl)
@@ -75,22 +89,30 @@ def bed_step(zf, vf, th, hist, sig, pq, flux, dt, gl, mu, rho_s, d, e, phi_c, k1
         zf[0] = 0.0
         if vf[0] < 0.0:
             vf[0] = 0.0
+    bound = cfl * s_min / c
+    if zeta_s_max > 0.0:
+        bound = min(bound, 0.25 * mu / zeta_s_max)            # half of μ s/(2ζ)
     for j in range(n):
         s = zf[j + 1] - zf[j]
         if not s > 0.0:
-            return reaction, 1
+            return reaction, 1, bound
         th[j] += -pq[j] * (vf[j + 1] - vf[j]) * dt / (1.5 * mu)
     flux[0] = 0.0
+    cond[0] = 0.0
     if reaction > 0.0:
         flux[0] = -wall_loss(mu / (rho_s * (zf[1] - zf[0])), th[0], rho_s, e, e)
     flux[n] = 0.0
+    cond[n] = 0.0
     for f in range(1, n):
         sa = zf[f] - zf[f - 1]
         sb = zf[f + 1] - zf[f]
         phi = 0.5 * (mu / (rho_s * sa) + mu / (rho_s * sb))
         t = 0.5 * (max(th[f - 1], 0.0) + max(th[f], 0.0))
-        flux[f] = -conductivity(phi, t, rho_s, d, e) * (th[f] - th[f - 1]) / (0.5 * (sa + sb))
+        cond[f] = conductivity(phi, t, rho_s, d, e) / (0.5 * (sa + sb))      # κ_f / h_f
+        flux[f] = -cond[f] * (th[f] - th[f - 1])
+    g_max = 0.0
     for j in range(n):
+        g_max = max(g_max, cond[j] + cond[j + 1])
         t = th[j] + dt * (flux[j] - flux[j + 1]) / (1.5 * mu)
         if t < 0.0:
             t = 0.0
@@ -99,7 +121,9 @@ def bed_step(zf, vf, th, hist, sig, pq, flux, dt, gl, mu, rho_s, d, e, phi_c, k1
         a = dissipation(phi, 1.0, rho_s, d, e) * s / (1.5 * mu)     # γ s/(3μ/2) = a θ^{3/2}
         th[j] = t / (1.0 + 0.5 * a * dt * math.sqrt(t)) ** 2
         hist[j] = history_update(d * (1.0 - phi_c / phi), hist[j])
-    return reaction, 0
+    if g_max > 0.0:
+        bound = min(bound, 0.5 * 1.5 * mu / g_max)    # half of (3μ/2)/(κ_f/h_f + κ_f+1/h_f+1)
+    return reaction, 0, bound
 
 
 @numba.njit(cache=True)
@@ -116,24 +140,56 @@ def floor_reaction(zf, vf, th, hist, mu, rho_s, d, e, phi_c, k1, k2, gl):
 
 
 @numba.njit(cache=True)
-def bed_advance(zf, vf, th, hist, t, t_stop, dt_max, mu, rho_s, d, e, phi_c, k1, k2, g, amp, w, moving,
-                counters):
-    """Steps from t to exactly t_stop with Δt ≤ dt_max; the floor ϑ = a sin ωt when ``moving``
-    (g_l = g − a ω² sin ωt), at rest otherwise.  counters: [steps, status]; returns
-    (t, last floor reaction [Pa])."""
+def stable_dt(zf, th, mu, rho_s, d, e, cfl, c):
+    """The bound of :func:`bed_step` [s] at the state (zf, θ): the smallest over the cells of
+    cfl s_j/c, μ s_j/(4ζ_j) and (3/4) μ/(κ_f/h_f + κ_f+1/h_f+1) (ζ at no velocity gradient, κ
+    at the faces)."""
+    n = th.shape[0]
+    bound = 1e300
+    g_lo = 0.0
+    for j in range(n):
+        s = zf[j + 1] - zf[j]
+        phi = mu / (rho_s * s)
+        p, zeta = pressure_and_viscosity(phi, th[j], rho_s, d, e)
+        b = cfl * s / c
+        if zeta > 0.0:
+            b = min(b, 0.25 * mu * s / zeta)
+        g_hi = 0.0
+        if j + 1 < n:
+            sb = zf[j + 2] - zf[j + 1]
+            phf = 0.5 * (phi + mu / (rho_s * sb))
+            t = 0.5 * (max(th[j], 0.0) + max(th[j + 1], 0.0))
+            g_hi = conductivity(phf, t, rho_s, d, e) / (0.5 * (s + sb))
+        if g_lo + g_hi > 0.0:
+            b = min(b, 0.5 * 1.5 * mu / (g_lo + g_hi))
+        bound = min(bound, b)
+        g_lo = g_hi
+    return bound
+
+
+@numba.njit(cache=True)
+def bed_advance(zf, vf, th, hist, t, t_stop, dt_next, mu, rho_s, d, e, phi_c, k1, k2, g, amp, w, moving,
+                counters, cfl, c):
+    """Steps from t to exactly t_stop, each with the bound its previous step returned
+    (``dt_next[0]``: in, the first step's; out, the bound after the last step); the floor
+    ϑ = a sin ωt when ``moving`` (g_l = g − a ω² sin ωt), at rest otherwise.  counters: [steps,
+    status]; returns (t, last floor reaction [Pa])."""
     n = th.shape[0]
     sig = np.empty(n)
     pq = np.empty(n)
     flux = np.empty(n + 1)
+    cond = np.empty(n + 1)
     reaction = 0.0
     while t < t_stop:
-        dt = dt_max
+        dt = dt_next[0]
         last = False
         if t + dt >= t_stop:
             dt = t_stop - t
             last = True
         gl = g - amp * w * w * math.sin(w * t) if moving else g
-        reaction, status = bed_step(zf, vf, th, hist, sig, pq, flux, dt, gl, mu, rho_s, d, e, phi_c, k1, k2)
+        reaction, status, bound = bed_step(zf, vf, th, hist, sig, pq, flux, cond, dt, gl, mu, rho_s, d, e, phi_c,
+                                           k1, k2, cfl, c)
+        dt_next[0] = bound
         counters[0] += 1
         t = t_stop if last else t + dt
         if status != 0:
@@ -232,8 +288,9 @@ def _compile_bed():
     """Compile the loop once on a tiny bed (so that ``wall_time`` is the run's own)."""
     zf = np.arange(5) * 1e-3
     c = np.zeros(2, dtype=np.int64)
-    bed_advance(zf, np.zeros(5), np.zeros(4), np.zeros(4), 0.0, 1e-6, 1e-6, 1.0, 1000.0, 1e-3, 0.9, 0.6,
-                1.0, 1.0, 9.81, 0.0, 1.0, False, c)
+    bed_advance(zf, np.zeros(5), np.zeros(4), np.zeros(4), 0.0, 1e-6, np.array([stable_dt(
+        zf, np.zeros(4), 1.0, 1000.0, 1e-3, 0.9, 0.4, 10.0)]), 1.0, 1000.0, 1e-3, 0.9, 0.6, 1.0, 1.0, 9.81, 0.0, 1.0,
+        False, c, 0.4, 10.0)
 
 
 def static_bed(setup):
@@ -275,22 +332,11 @@ def run_bed(setup, progress=None) -> BedResult:
     args = (mu, s.density, s.diameter, s.restitution, s.phi_c, k1, k2, s.gravity, s.amplitude, s.omega)
     _compile_bed()
 
-    def dt_for_state():
-        smin = float(np.min(np.diff(zf)))
-        dt = s.cfl * smin / c
-        phi = mu / (s.density * np.diff(zf))
-        coef = constitutive_numpy(phi, th, s.density, s.diameter, s.restitution)
-        kmax = float(np.max(coef["kappa"]))
-        if kmax > 0.0:                           # conduction: Δt ≤ (3μ/2) s/(2κ), a quarter of it
-            dt = min(dt, 0.25 * 1.5 * mu * smin / kmax)
-        zmax = float(np.max(coef["lambda"] + (4.0 / 3.0) * coef["mu"]))
-        if zmax > 0.0:                           # viscous stress: Δt ≤ μ s/(2ζ), a quarter of it
-            dt = min(dt, 0.25 * mu * smin / zmax)
-        return dt
+    dt_next = np.array([stable_dt(zf, th, mu, s.density, s.diameter, s.restitution, s.cfl, c)])
 
     def advance(t0, t1, moving):
         t = t0
-        t, r = bed_advance(zf, vf, th, hist, t, t1, dt_for_state(), *args, moving, counters)
+        t, r = bed_advance(zf, vf, th, hist, t, t1, dt_next, *args, moving, counters, s.cfl, c)
         if counters[1]:
             raise SimulationError(f"bed run stopped at t = {t:.6g} s: a cell's thickness reached 0 "
                                   f"({int(counters[0])} steps)", None, t, None, "stopped")
