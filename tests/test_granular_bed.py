@@ -213,3 +213,98 @@ def test_step_bound_is_the_states_and_follows_the_formula():
     expect = np.min(np.minimum.reduce([s.cfl * sz / c, 0.25 * mu * sz / zeta, 0.75 * mu / (g[:-1] + g[1:])]))
     assert b0 == pytest.approx(expect, rel=1e-12)
     assert expect < np.min(s.cfl * sz / c)        # a transport limit is the binding one here
+
+
+GRANULAR_CONFIG = """\
+[layer]
+kind = "granular_bed"
+gamma = 3.0
+cycles = 2
+n_cells = 40
+save_every = 0.001
+settle = 0.005
+[output]
+checkpoint_every = 0.05
+"""
+
+
+def test_granular_bed_runs_from_a_config_as_compare_bed_runs_it(tmp_path):
+    """``kind = "granular_bed"`` runs the bed of compare-bed through the shared driver: the file's
+    Lagrangian state gives run_bed's mass centre bit for bit (the same object steps both), the
+    line density on the output grid holds the bed's mass, the fields carry their units, and the
+    floor carries the bed's weight at t = 0."""
+    from bsrflow.io.netcdf import read_snapshots
+    cfg = tmp_path / "bed.toml"
+    cfg.write_text(GRANULAR_CONFIG)
+    out = tmp_path / "bed.nc"
+    assert main(["run", str(cfg), "--out", str(out)]) == 0
+    data, attrs = read_snapshots(out)
+    s = BedSetup(gamma=3.0, cycles=2, n_cells=40, save_every=0.001, settle=0.005)
+    ref = run_bed(s)
+    np.testing.assert_array_equal(data["time"], ref.t)
+    zf = data["state_face_height"]
+    np.testing.assert_array_equal(np.mean(0.5 * (zf[:, 1:] + zf[:, :-1]), axis=1), ref.mass_centre)
+    np.testing.assert_array_equal(data["state_floor_force"], ref.floor_force)
+    mass = s.n_spheres * s.sphere_mass
+    np.testing.assert_allclose(data["mass"], mass, rtol=1e-12)
+    # the output grid's bins put each bin's mass at its centre: the mass centre within half a bin
+    np.testing.assert_allclose(data["mass_centre"] - data["floor"], ref.mass_centre, rtol=0, atol=0.05 * s.diameter)
+    assert data["state_floor_force"][0] == pytest.approx(mass * s.gravity, rel=1e-3)
+    assert attrs["status"] == "ok" and attrs["steps"] == ref.steps
+    assert np.max(data["state_theta"][-1]) > 1e-4                  # the vibrated bed is hot
+    import xarray as xr
+    with xr.open_dataset(out) as ds:
+        units = {k: ds[k].attrs["units"] for k in ("rho", "u_z", "state_theta", "state_face_height",
+                                                   "state_solid_fraction", "state_floor_force")}
+    assert units == {"rho": "kg m-1", "u_z": "m s-1", "state_theta": "m2 s-2", "state_face_height": "m",
+                     "state_solid_fraction": "1", "state_floor_force": "N"}
+
+
+def test_interrupted_granular_bed_resumes_bit_for_bit(tmp_path):
+    from conftest import interrupt_and_resume
+
+    from bsrflow.io.layer_runner import load_layer_config, run_layer_config
+    from bsrflow.io.netcdf import read_snapshots
+    cfgfile = tmp_path / "bed.toml"
+    cfgfile.write_text(GRANULAR_CONFIG)
+    cfg = load_layer_config(cfgfile)
+    full, part = tmp_path / "full.nc", tmp_path / "part.nc"
+    run_layer_config(cfg, full)
+
+    def check(ck):
+        assert set(ck.fields) == {"face_height", "face_velocity", "theta", "delta_max", "dt_next"}
+
+    outcome = interrupt_and_resume(cfg, part, between=check)
+    assert outcome.resumed_from == pytest.approx(0.05)
+    a, _ = read_snapshots(full)
+    b, _ = read_snapshots(part)
+    for k in ("time", "rho", "u_z", "mass_centre", "state_face_height", "state_theta", "state_floor_force"):
+        np.testing.assert_array_equal(a[k], b[k])
+
+
+@pytest.mark.parametrize("extra, field", [
+    ("[layer]\nkind = \"granular_bed\"\ngamma = -1\n", "layer.gamma"),
+    ("[layer]\nkind = \"granular_bed\"\noutput_height = 0\n", "layer.output_height"),
+    ("[layer]\nkind = \"granular_bed\"\nn_cells = 2\n", "layer.n_cells"),
+    ("[layer]\nkind = \"granular_bed\"\n[output]\nvtk = true\n", "output.vtk"),
+    ("[layer]\nkind = \"granular_bed\"\n[tracers]\npositions = [[0.01]]\n", "tracers"),
+    ("[layer]\nkind = \"granular_bed\"\nbox_width = 0.1\n", "layer.box_width"),
+])
+def test_granular_bed_config_refuses_bad_input_in_one_line(tmp_path, capsys, extra, field):
+    cfg = tmp_path / "bed.toml"
+    cfg.write_text(extra)
+    assert main(["run", str(cfg), "--out", str(tmp_path / "bed.nc")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and field in err[0]
+    assert not (tmp_path / "bed.nc").exists()
+
+
+def test_a_bed_passing_the_output_grid_stops_and_keeps_its_snapshots(tmp_path, capsys):
+    cfg = tmp_path / "bed.toml"
+    cfg.write_text(GRANULAR_CONFIG.replace("settle = 0.005", "output_height = 0.06"))
+    assert main(["run", str(cfg), "--out", str(tmp_path / "bed.nc")]) == 3
+    err = capsys.readouterr().err
+    assert "passed the output grid's top" in err and "output_height" in err
+    from bsrflow.io.netcdf import read_snapshots
+    data, attrs = read_snapshots(tmp_path / "bed.nc")
+    assert data["time"].size > 1 and "output_height" in attrs["status"]

@@ -38,7 +38,8 @@ def add_parser(sub):
 
     p = sub.add_parser("run", help="run a config (TOML) into a netCDF file, with checkpoints and --resume",
                        description="Validate CONFIG, run the tapped column (or, for a config with a "
-                                   "[layer] table, a 2-D / 3-D layer, with optional VTK output; "
+                                   "[layer] table, a 2-D / 3-D layer, with optional VTK output, or "
+                                   "kind = \"granular_bed\", the vibrated bed of compare-bed; "
                                    "bsrflow.io.layer_runner) and write snapshots to a netCDF4 file as "
                                    "the run goes.")
     p.add_argument("config", metavar="CONFIG", help="TOML config (see `bsrflow init`)")

@@ -10,13 +10,22 @@ netCDF file (:class:`bsrflow.io.netcdf.NetCDFWriterND`), optionally VTK files fo
     [output]
     vtk = true                   # <out stem>_vtk/layer_*.vtu and layer.pvd
     checkpoint_every = 0.05      # [s], on snapshot times; 0: none; default about every 0.1 s
-    state = true                 # packing_bed only: its state fields too (state_<name>, with units)
+    state = true                 # packing_bed, granular_bed (default there): state fields (state_<name>, units)
     [tracers]
     positions = [[0.01, 0.005], [0.01, 0.015]]   # initial positions [m] (floor frame, x (y) z)
 
 ``kind = "packing_bed"`` (:class:`bsrflow.physics.packing_bed.PackingBed`) runs the n-D packing
 continuum (:class:`bsrflow.numerics.packing_nd.EulerianPackingND`) into the same files; its
 checkpoint holds the discretisation's named fields (history included).
+
+``kind = "granular_bed"`` (:class:`bsrflow.physics.granular_bed.BedSetup`: its fields, e.g.
+``gamma``, ``cycles``, ``n_cells``, ``output_height``) runs the vibrated bed of packing stress
+and granular temperature that ``bsrflow compare-bed`` compares with LIGGGHTS, horizontally
+uniform, on its Lagrangian cells (:class:`bsrflow.numerics.bed_lagrangian.GranularBedColumn`):
+the file is a column's (``rho`` the bed's mass per metre of height [kg/m], ``u_z``, on bins of
+d/10) with, by default (``[output] state``), the cells' state (``state_face_height``,
+``state_solid_fraction``, ``state_theta``, ``state_delta_max``) and ``state_floor_force`` [N];
+no VTK, no tracers (refused in one line).
 
 Tracers (optional) are moved with the interpolated velocity by the scheme's tracer integrator
 (:meth:`bsrflow.numerics.solver_nd.SimulationND.run`; for the packing bed the fields' SSP-RK3
@@ -47,7 +56,7 @@ from .driver import OTHER_KIND, RunJob, RunOutcome, drive, first_difference
 
 __all__ = ["is_layer_config", "load_layer_config", "run_layer_config", "LayerOutcome"]
 
-KINDS = ("tapped_layer", "vibrated_box", "packing_bed")
+KINDS = ("tapped_layer", "vibrated_box", "packing_bed", "granular_bed")
 _OUTPUT_KEYS = {"vtk": bool, "checkpoint_every": float, "state": bool}
 
 
@@ -106,9 +115,11 @@ def _toml_value(value) -> str:
 
 
 def _kind_classes() -> dict:
+    from ..physics.granular_bed import BedSetup
     from ..physics.packing_bed import PackingBed
     from ..physics.scenarios_nd import TappedLayer, VibratedBox
-    return {"tapped_layer": TappedLayer, "vibrated_box": VibratedBox, "packing_bed": PackingBed}
+    return {"tapped_layer": TappedLayer, "vibrated_box": VibratedBox, "packing_bed": PackingBed,
+            "granular_bed": BedSetup}
 
 
 def load_layer_config(path, overrides=()) -> LayerConfig:
@@ -154,7 +165,7 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
         raise ConfigError(f"layer.{field}" if field else "layer", msg) from None
     height = setup.domain_height or setup.energy_bound_height()
     if not math.isfinite(height):
-        drive = "gamma" if kind == "packing_bed" else "amplitude"
+        drive = "amplitude" if kind in ("tapped_layer", "vibrated_box") else "gamma"
         raise ConfigError(f"layer.{drive}", f"{kw.get(drive, getattr(setup, drive))!r} gives the floor a largest speed "
                           f"of {setup.floor_speed():.3g} m/s and an unbounded domain (the energy bound (3aω)²/(2g)); "
                           f"valid: a finite floor speed, at most {MAX_LAYER_CELLS:.0e} cells in the grid")
@@ -175,11 +186,18 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
     vtk = out.get("vtk", False)
     if not isinstance(vtk, bool):
         raise ConfigError("output.vtk", f"{vtk!r} must be true or false")
-    state = out.get("state", False)
+    state = out.get("state", kind == "granular_bed")
     if not isinstance(state, bool):
         raise ConfigError("output.state", f"{state!r} must be true or false")
-    if state and kind != "packing_bed":
-        raise ConfigError("output.state", f"true: an option of kind = \"packing_bed\" (the state of {kind!r}, "
+    if kind == "granular_bed":
+        if vtk:
+            raise ConfigError("output.vtk", "true: not an option of kind = \"granular_bed\" (a horizontally uniform "
+                              "bed: its profiles are in the netCDF file; VTK is for 2-D / 3-D fields)")
+        if "tracers" in data:
+            raise ConfigError("tracers", "not an option of kind = \"granular_bed\" (its Lagrangian cells' faces, "
+                              "state_face_height in the file, are its material lines)")
+    if state and kind not in ("packing_bed", "granular_bed"):
+        raise ConfigError("output.state", f"true: an option of kind = \"packing_bed\" or \"granular_bed\" (the state of {kind!r}, "
                           "rho and u on the grid, is written in every file)")
     t_end = float(setup.t_end)
     if float(setup.save_every) > t_end:
@@ -320,8 +338,10 @@ def _checkpoint_times(save_times, interval):
 def run_layer_config(cfg: LayerConfig, out, *, resume=False, progress=None, log=None) -> RunOutcome:
     """Run a layer config into ``out`` (module docstring) through the driver every run shares,
     :func:`bsrflow.io.driver.drive` (checkpoints, ``--resume``, what stops a run)."""
+    from ..physics.granular_bed import BedSetup
     from ..physics.packing_bed import PackingBed
-    job_class = PackingBedJob if isinstance(cfg.setup, PackingBed) else LayerJob
+    job_class = (PackingBedJob if isinstance(cfg.setup, PackingBed) else GranularBedJob
+                 if isinstance(cfg.setup, BedSetup) else LayerJob)
     return drive(job_class(cfg, out), resume=resume, progress=progress, log=log)
 
 
@@ -497,6 +517,65 @@ class PackingBedJob(_LayerBase):
         drive_events(t0, self.t_end, save_times, self.motion.jumps_between(t0, self.t_end), checkpoint_times,
                      advance=disc.advance, apply_jump=disc.apply_velocity_jump, save=save,
                      on_event=lambda t: on_checkpoint(t, disc.fields, disc.tracer_positions()))
+
+    def total_steps(self):
+        return int(self.disc.counters[0])
+
+
+class GranularBedJob(_LayerBase):
+    """``kind = "granular_bed"``: the vibrated bed of packing stress and granular temperature
+    (:class:`bsrflow.physics.granular_bed.BedSetup`, the model of ``bsrflow compare-bed``) on its
+    Lagrangian cells (:class:`bsrflow.numerics.bed_lagrangian.GranularBedColumn`) through the
+    packing controller; the file holds its line density and velocity on a fixed column of bins
+    of d/10 and (``[output] state``, on by default) the cells' state with θ and the floor's
+    force; checkpoints of the cells' state and the next step's Δt."""
+
+    name = "granular bed solver (horizontally uniform, Lagrangian cells)"
+
+    def prepare(self):
+        from ..numerics.bed_lagrangian import GranularBedColumn
+        self.disc = GranularBedColumn(self.setup)
+        self.grid, self.motion = self.disc.grid, self.disc.motion
+        self._t = 0.0
+
+    def _attrs(self):
+        return {"config": self.cfg.text, "config_resolved": self.cfg.resolved_text(),
+                "scheme": "granular_bed_lagrangian", "kernel": "granular_bed", "dimension": 1,
+                "scenario": "granular_bed", "diameter": float(self.setup.diameter),
+                "bed_area_m2": float(self.setup.area),
+                "rho_note": "rho is the bed's mass per metre of height (rho_s phi times the box's area)"}
+
+    def _state(self):
+        if not self.cfg.state:
+            return None
+        return self.disc.output_schema(), lambda: self.disc.output_fields(self._t)
+
+    def restore(self, ck):
+        try:
+            self.disc.load_fields(ck.fields)
+        except ValueError as exc:
+            raise ConfigError("--resume", f"the checkpoint's state does not match the config: {exc}") from None
+        self.disc.counters[0] = int(ck.steps)
+        self.disc.steps = int(ck.steps)
+
+    def compile(self, t0):
+        self.disc.advance(t0, t0)
+
+    def integrate(self, t0, save_times, checkpoint_times, observers, progress, on_checkpoint):
+        from ..numerics.controller import drive_events
+        disc = self.disc
+
+        def save(t):
+            self._t = t
+            u, rho = disc.observe()
+            for obs in observers:
+                obs(t, u, rho, None)
+            if progress is not None:
+                progress(t)
+
+        drive_events(t0, self.t_end, save_times, self.motion.jumps_between(t0, self.t_end), checkpoint_times,
+                     advance=disc.advance, apply_jump=disc.apply_velocity_jump, save=save,
+                     on_event=lambda t: on_checkpoint(t, disc.fields))
 
     def total_steps(self):
         return int(self.disc.counters[0])

@@ -387,7 +387,9 @@ def _add_state_fields(state, schema, sizes, coords):
             if sizes.setdefault(d, n) != n:
                 raise ValueError(f"state field {name}: dimension {d} of size {n}, elsewhere {sizes[d]}")
     labels = {"point": ("1", "material point index (from the floor, 0-based)", 0),
-              "lag": ("1", "bond lag: a bond of lag l joins a point to the l-th point below it", 1)}
+              "lag": ("1", "bond lag: a bond of lag l joins a point to the l-th point below it", 1),
+              "face": ("1", "Lagrangian cell face index (from the floor, 0-based)", 0),
+              "cell": ("1", "Lagrangian cell index (from the floor, 0-based)", 0)}
     for d, (units, long_name, first) in labels.items():
         if d in sizes and d not in coords:
             schema[d] = ((d,), units, long_name)

@@ -47,7 +47,7 @@ from ..physics.granular_bed import (conductivity, constitutive_numpy, dissipatio
                                     wall_loss)
 from ..physics.packing import history_update, packing_force, packing_force_numpy
 
-__all__ = ["bed_step", "bed_advance", "stable_dt", "bed_step_numpy", "floor_reaction", "static_bed", "run_bed",
+__all__ = ["GranularBedColumn", "bed_step", "bed_advance", "stable_dt", "bed_step_numpy", "floor_reaction", "static_bed", "run_bed",
            "BedResult"]
 
 
@@ -309,46 +309,152 @@ def static_bed(setup):
     return zf, delta.copy()
 
 
+class GranularBedColumn:
+    """The horizontally uniform bed of :class:`bsrflow.physics.granular_bed.BedSetup` as a
+    discretisation of the run driver (the interface of the packing discretisations: ``advance``,
+    ``apply_velocity_jump``, ``observe``, named ``fields``, ``load_fields``, ``counters``), so that
+    ``bsrflow run`` (``kind = "granular_bed"``), its output, checkpoints and ``--resume`` serve it
+    as every other run, and :func:`run_bed` (``bsrflow compare-bed``) steps the same object.
+
+    State: the faces' heights ``zf`` [m] and velocities ``vf`` [m/s] (floor frame), the cells'
+    θ [m²/s²] and δ_max [m], the next step's Δt bound [s] (:func:`bed_step`).  Built at t = 0:
+    the bed at rest (:func:`static_bed`, θ = θ_seed), then ``setup.settle`` s on the resting
+    floor (before t = 0).  The floor is ϑ = a sin ωt from t = 0 (:attr:`motion`: its velocity
+    jumps by aω at t = 0, which the controller applies as ``apply_velocity_jump``).
+
+    ``grid`` is the fixed output column (:meth:`observe`): bins of d/10 from the floor to
+    ``setup.output_top`` [m], each holding the mass of the cells overlapping it, as a line density
+    ρ_s φ A [kg/m] (the mass per metre of height of the whole bed, as a 1-D column's ρ), and the
+    mass-weighted velocity [m/s].  A bed whose top passes the output grid's top stops the run
+    (:class:`bsrflow.numerics.solver.SimulationError`, naming ``output_height``)."""
+
+    name = "granular_bed"
+
+    def __init__(self, setup):
+        from ..physics.motion import SinusoidalVibration
+        s = self.setup = setup
+        n = s.n_cells
+        self.mu = s.mass_per_area / n
+        self.k1 = s.layer_stiffness / s.area
+        self.k2 = self.k1 / s.restitution ** 2
+        self.c = s.contact_wave_speed()
+        self.zf, self.hist = static_bed(s)
+        self.vf = np.zeros(n + 1)
+        self.th = np.full(n, float(s.theta_seed))
+        self.counters = np.zeros(2, dtype=np.int64)
+        self.steps = 0
+        self.motion = SinusoidalVibration(s.amplitude, s.frequency, start=0.0)
+        self._grid = None
+        self._args = (self.mu, s.density, s.diameter, s.restitution, s.phi_c, self.k1, self.k2, s.gravity,
+                      s.amplitude, s.omega)
+        self.dt_next = np.array([stable_dt(self.zf, self.th, self.mu, s.density, s.diameter, s.restitution, s.cfl,
+                                           self.c)])
+        _compile_bed()
+        if s.settle > 0.0:
+            t_set = -float(s.settle)
+            k_set = max(1, int(math.ceil(s.settle / 1e-3)))
+            for k in range(k_set):
+                self._advance(t_set + k * s.settle / k_set, t_set + (k + 1) * s.settle / k_set, False)
+
+    @property
+    def grid(self):
+        """The output column (class docstring; :meth:`BedSetup.grid`), built on first use."""
+        if self._grid is None:
+            self._grid = self.setup.grid()
+        return self._grid
+
+    def _advance(self, t0, t1, moving):
+        from .solver import SimulationError
+        t, _ = bed_advance(self.zf, self.vf, self.th, self.hist, float(t0), float(t1), self.dt_next, *self._args,
+                           moving, self.counters, self.setup.cfl, self.c)
+        self.steps = int(self.counters[0])
+        if self.counters[1]:
+            raise SimulationError(f"bed run stopped at t = {t:.6g} s: a cell's thickness reached 0 "
+                                  f"({int(self.counters[0])} steps)", None, t, None, "stopped")
+
+    def advance(self, t0, t1):
+        """Steps from t0 to exactly t1 [s] (the floor moving; a no-op when t1 = t0)."""
+        from .solver import SimulationError
+        self._advance(t0, t1, True)
+        top = self.grid.upper[-1]
+        if self.zf[-1] > top:
+            raise SimulationError(f"bed run stopped at t = {t1:.6g} s: the bed's top ({self.zf[-1]:.4g} m) passed "
+                                  f"the output grid's top ({top:.4g} m); raise output_height", None, t1, None,
+                                  "stopped")
+
+    def apply_velocity_jump(self, dv):
+        """The floor's velocity jumps by dv [m/s]: the bed's, relative to it, by −dv."""
+        self.vf -= dv
+
+    def floor_force(self, t) -> float:
+        """The floor's reaction on the bed [N] (area × R) at time t [s] (ϑ'' of the floor at t)."""
+        s = self.setup
+        gl = s.gravity - s.amplitude * s.omega ** 2 * math.sin(s.omega * t) if t >= 0.0 else s.gravity
+        return floor_reaction(self.zf, self.vf, self.th, self.hist, self.mu, s.density, s.diameter, s.restitution,
+                              s.phi_c, self.k1, self.k2, gl) * s.area
+
+    def observe(self):
+        """(u (1, nz) [m/s], ρ (nz) [kg/m]) on the output grid (class docstring)."""
+        s = self.setup
+        edges = self.grid.lower[-1] + self.grid.dx * np.arange(self.grid.shape[0] + 1)
+        lo = np.clip(self.zf[:-1, None], edges[None, :-1], edges[None, 1:])
+        hi = np.clip(self.zf[1:, None], edges[None, :-1], edges[None, 1:])
+        frac = (hi - lo) / np.diff(self.zf)[:, None]                 # share of cell j in bin k
+        mass = self.mu * s.area * frac                                # [kg]
+        m_bin = mass.sum(axis=0)
+        vc = 0.5 * (self.vf[1:] + self.vf[:-1])
+        mom = (mass * vc[:, None]).sum(axis=0)
+        u = np.where(m_bin > 0.0, mom / np.where(m_bin > 0.0, m_bin, 1.0), 0.0)
+        return u[None, :], m_bin / self.grid.dx
+
+    @property
+    def fields(self) -> dict:
+        """The named state (checkpoints): ``face_height`` [m], ``face_velocity`` [m/s] (n + 1),
+        ``theta`` [m²/s²], ``delta_max`` [m] (n), ``dt_next`` [s] (1)."""
+        return {"face_height": self.zf, "face_velocity": self.vf, "theta": self.th, "delta_max": self.hist,
+                "dt_next": self.dt_next}
+
+    def load_fields(self, fields):
+        """Restore :attr:`fields` (ValueError naming the first that is missing or of another shape)."""
+        for name, arr in self.fields.items():
+            v = fields.get(name)
+            if v is None or np.shape(v) != arr.shape:
+                raise ValueError(f"state field {name}: {'missing' if v is None else np.shape(v)}, expected "
+                                 f"{arr.shape}")
+        for name, arr in self.fields.items():
+            arr[...] = np.asarray(fields[name], dtype=float)
+
+    def output_schema(self) -> dict:
+        """The state written with every snapshot (``state_<name>`` in the file): the cells and faces
+        of the Lagrangian state, θ included, and the floor's force."""
+        return {"face_height": (("face",), "m", "height of the Lagrangian cells' faces above the floor"),
+                "face_velocity": (("face",), "m s-1", "velocity of the faces relative to the floor"),
+                "solid_fraction": (("cell",), "1", "solid fraction phi of the Lagrangian cells"),
+                "theta": (("cell",), "m2 s-2", "granular temperature theta = <C^2>/3 of the cells"),
+                "delta_max": (("cell",), "m", "largest overlap per contact reached (the packing law's history)"),
+                "floor_force": ((), "N", "the floor's force on the bed")}
+
+    def output_fields(self, t) -> dict:
+        return {"face_height": self.zf, "face_velocity": self.vf,
+                "solid_fraction": self.mu / (self.setup.density * np.diff(self.zf)), "theta": self.th,
+                "delta_max": self.hist, "floor_force": np.float64(self.floor_force(t))}
+
+
 def run_bed(setup, progress=None) -> BedResult:
-    """Run the bed of ``setup`` (:class:`bsrflow.physics.granular_bed.BedSetup`): from the bed at
-    rest (:func:`static_bed`, θ = θ_seed), optionally ``setup.settle`` s more on the resting floor,
-    then vibrate for ``setup.cycles`` cycles from t = 0 (the floor's velocity jumps to aω: the bed's
-    velocity relative to the floor by −aω).  ``progress(t)`` is called at every save.  A cell
-    collapsing stops the run with :class:`bsrflow.numerics.solver.SimulationError`."""
+    """Run the bed of ``setup`` (:class:`bsrflow.physics.granular_bed.BedSetup`) on a
+    :class:`GranularBedColumn`: from the bed at rest, optionally ``setup.settle`` s more on the
+    resting floor, then vibrate for ``setup.cycles`` cycles from t = 0 (the floor's velocity
+    jumps to aω: the bed's velocity relative to the floor by −aω).  ``progress(t)`` is called at
+    every save.  A cell collapsing stops the run with :class:`bsrflow.numerics.solver.SimulationError`."""
     import time
 
-    from .solver import SimulationError
-
     s = setup
-    n = s.n_cells
-    mu = s.mass_per_area / n
-    k1 = s.layer_stiffness / s.area
-    k2 = k1 / s.restitution ** 2
-    zf, hist = static_bed(s)
-    vf = np.zeros(n + 1)
-    th = np.full(n, float(s.theta_seed))
-    c = s.contact_wave_speed()
-    counters = np.zeros(2, dtype=np.int64)
-    args = (mu, s.density, s.diameter, s.restitution, s.phi_c, k1, k2, s.gravity, s.amplitude, s.omega)
     _compile_bed()
-
-    dt_next = np.array([stable_dt(zf, th, mu, s.density, s.diameter, s.restitution, s.cfl, c)])
-
-    def advance(t0, t1, moving):
-        t = t0
-        t, r = bed_advance(zf, vf, th, hist, t, t1, dt_next, *args, moving, counters, s.cfl, c)
-        if counters[1]:
-            raise SimulationError(f"bed run stopped at t = {t:.6g} s: a cell's thickness reached 0 "
-                                  f"({int(counters[0])} steps)", None, t, None, "stopped")
-        return r
-
     wall = time.perf_counter()
-    if s.settle > 0.0:
-        t_set = -float(s.settle)
-        k_set = max(1, int(math.ceil(s.settle / 1e-3)))
-        for k in range(k_set):
-            advance(t_set + k * s.settle / k_set, t_set + (k + 1) * s.settle / k_set, False)
-    vf -= s.amplitude * s.omega
+    bed = GranularBedColumn(s)
+    n, mu = s.n_cells, bed.mu
+    zf = bed.zf
+    bed.apply_velocity_jump(s.amplitude * s.omega)
     n_save = int(round(s.t_end / s.save_every))
     ts = np.arange(n_save + 1) * s.save_every
     com = np.empty(n_save + 1)
@@ -368,9 +474,7 @@ def run_bed(setup, progress=None) -> BedResult:
         zc = 0.5 * (zf[1:] + zf[:-1])
         com[i] = float(np.mean(zc))
         top[i] = float(np.interp(0.99, cum_frac, zf))
-        gl = s.gravity - s.amplitude * s.omega ** 2 * math.sin(s.omega * ts[i])
-        force[i] = floor_reaction(zf, vf, th, hist, mu, s.density, s.diameter, s.restitution, s.phi_c, k1, k2,
-                                  gl) * s.area
+        force[i] = bed.floor_force(ts[i])
         if i in phase_idx:
             name = phase_idx[i]
             phi = mu / (s.density * np.diff(zf))
@@ -381,11 +485,11 @@ def run_bed(setup, progress=None) -> BedResult:
 
     record(0)
     for i in range(1, n_save + 1):
-        advance(ts[i - 1], ts[i], True)
+        bed._advance(ts[i - 1], ts[i], True)
         record(i)
     wall = time.perf_counter() - wall
     profiles = {k: (prof_z, prof_sum[k] / max(prof_n[k], 1)) for k in PHASES}
     floor = s.amplitude * np.sin(s.omega * ts)
-    return BedResult(ts, com, top, force, floor, profiles, int(counters[0]), wall,
+    return BedResult(ts, com, top, force, floor, profiles, int(bed.counters[0]), wall,
                      info={"n_cells": n, "layer_stiffness_N_m": s.layer_stiffness,
-                           "contact_wave_speed_m_s": c})
+                           "contact_wave_speed_m_s": bed.c})

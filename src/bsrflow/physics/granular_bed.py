@@ -170,7 +170,9 @@ class BedSetup:
     the bed at rest (:func:`bsrflow.numerics.bed_lagrangian.static_bed`; 0 by default); numerics:
     n_cells (Lagrangian cells over the bed), cfl (of the contact wave speed), theta_seed
     [m²/s²] (the temperature at the start, the DEM bed's residual motion; 0 is an absorbing
-    state: without a seed and without shocks θ stays 0), save_every [s].  200 cells and
+    state: without a seed and without shocks θ stays 0), save_every [s]; output_height [m]: the
+    top of the fixed output grid of ``bsrflow run`` (``kind = "granular_bed"``; None: the rest
+    height + (3aω)²/(2g) + 10 d, :meth:`energy_bound_height`).  200 cells and
     cfl 0.4: the Γ = 3 comparison's flight time and mass-centre RMS change by 0.1 % and 0.01 d
     against 400 cells.
     """
@@ -192,6 +194,7 @@ class BedSetup:
     cfl: float = 0.4
     theta_seed: float = 1e-6
     save_every: float = 1e-4
+    output_height: float | None = None
 
     def __post_init__(self):
         for name, lo, hi in (("diameter", 0.0, 1.0), ("density", 0.0, 1e5), ("stiffness", 0.0, 1e12),
@@ -200,6 +203,10 @@ class BedSetup:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and lo < v <= hi):
                 raise ValueError(f"{name} = {v!r} is outside the valid range ({lo:g}, {hi:g}]")
+        h = self.output_height
+        if h is not None and (isinstance(h, bool) or not isinstance(h, (int, float)) or not math.isfinite(h)
+                              or not 0.0 < h <= 100.0):
+            raise ValueError(f"output_height = {h!r} is outside the valid range (0, 100] m (or not given)")
         for name, lo, hi in (("gamma", 0.0, 20.0), ("settle", 0.0, 10.0), ("theta_seed", 0.0, 1.0)):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and lo <= v <= hi):
@@ -262,6 +269,38 @@ class BedSetup:
     @property
     def t_end(self) -> float:
         return self.cycles / self.frequency
+
+    def floor_speed(self) -> float:
+        """aω [m/s], the floor's largest speed."""
+        return self.amplitude * self.omega
+
+    def energy_bound_height(self) -> float:
+        """The bed's rest height, a flight from launch speeds up to 3aω, (3aω)²/(2g), and 10 d
+        for its dilute top [m]: the default top of the output grid (``output_height``)."""
+        v = 3.0 * self.floor_speed()
+        return self.rest_height + v * v / (2.0 * self.gravity) + 10.0 * self.diameter
+
+    dim = 1
+    """A layer config's dimension: the horizontally uniform bed is a column."""
+
+    @property
+    def domain_height(self) -> float | None:
+        """``output_height`` (a layer config's name for the domain's top)."""
+        return self.output_height
+
+    def grid(self):
+        """The fixed output column of ``bsrflow run`` (:class:`bsrflow.numerics.grid_nd.GridND`):
+        bins of d/10 from the floor to :attr:`output_top`."""
+        from ..numerics.grid_nd import GridND
+        dz = self.diameter / 10.0
+        nz = int(math.ceil(self.output_top / dz - 1e-9))
+        return GridND((nz,), dz, bc_lower="floor", bc_upper="vacuum")
+
+    @property
+    def output_top(self) -> float:
+        """Top of the fixed output grid of ``bsrflow run`` [m]: ``output_height``, by default
+        :meth:`energy_bound_height`."""
+        return float(self.output_height) if self.output_height is not None else self.energy_bound_height()
 
     def with_(self, **kw) -> "BedSetup":
         from dataclasses import replace
