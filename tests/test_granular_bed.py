@@ -260,6 +260,16 @@ def test_granular_bed_runs_from_a_config_as_compare_bed_runs_it(tmp_path):
                      "state_solid_fraction": "1", "state_floor_force": "N"}
 
 
+def test_granular_bed_config_saves_every_millisecond_unless_told(tmp_path):
+    from bsrflow.io.layer_runner import load_layer_config
+    cfg = tmp_path / "bed.toml"
+    cfg.write_text("[layer]\nkind = \"granular_bed\"\n")
+    assert load_layer_config(cfg).setup.save_every == 1e-3 and BedSetup().save_every == 1e-4
+    cfg.write_text("[layer]\nkind = \"granular_bed\"\nsave_every = 0.0005\n")
+    assert load_layer_config(cfg).setup.save_every == 5e-4
+    assert "save_every = 0.0005" in load_layer_config(cfg).resolved_text()
+
+
 def test_interrupted_granular_bed_resumes_bit_for_bit(tmp_path):
     from conftest import interrupt_and_resume
 
