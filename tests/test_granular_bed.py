@@ -70,17 +70,19 @@ def _state(rng, n=30, on_floor=True):
     return s, mu, zf, vf, th, hist, k1
 
 
-@pytest.mark.parametrize("on_floor", [True, False])
-def test_compiled_step_matches_numpy(on_floor):
+@pytest.mark.parametrize("on_floor, friction", [(True, 0.0), (False, 0.0), (True, 0.5)])
+def test_compiled_step_matches_numpy(on_floor, friction):
     rng = np.random.default_rng(11 if on_floor else 12)
     s, mu, zf, vf, th, hist, k1 = _state(rng, on_floor=on_floor)
+    s = s.with_(friction=friction)
     k2 = k1 / s.restitution ** 2
     dt, gl = 2e-6, s.gravity + 30.0
-    ref = bed_step_numpy(zf, vf, th, hist, dt, gl, mu, s.density, s.diameter, s.restitution, s.phi_c, k1, k2)
+    e_d = s.dissipation_restitution
+    ref = bed_step_numpy(zf, vf, th, hist, dt, gl, mu, s.density, s.diameter, s.restitution, s.phi_c, k1, k2, e_d)
     n = th.size
     z, v, t, hh = zf.copy(), vf.copy(), th.copy(), hist.copy()
     r, status, _ = bed_step(z, v, t, hh, np.empty(n), np.empty(n), np.empty(n + 1), np.empty(n + 1), dt, gl, mu,
-                            s.density, s.diameter, s.restitution, s.phi_c, k1, k2, s.cfl, s.contact_wave_speed())
+                            s.density, s.diameter, s.restitution, s.phi_c, k1, k2, s.cfl, s.contact_wave_speed(), e_d)
     assert status == 0
     for a, b in zip((z, v, t, hh, r), ref):
         np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-300)
@@ -200,7 +202,7 @@ def test_step_bound_is_the_states_and_follows_the_formula():
     b0 = stable_dt(zf, th, mu, s.density, s.diameter, s.restitution, s.cfl, c)
     _, status, b1 = bed_step(zf.copy(), vf.copy(), th.copy(), hist.copy(), np.empty(n), np.empty(n), np.empty(n + 1),
                              np.empty(n + 1), 0.0, s.gravity, mu, s.density, s.diameter, s.restitution, s.phi_c, k1,
-                             k1 / s.restitution ** 2, s.cfl, c)
+                             k1 / s.restitution ** 2, s.cfl, c, s.restitution)
     assert status == 0 and b1 == pytest.approx(b0, rel=1e-14)
     sz = np.diff(zf)
     phi = mu / (s.density * sz)
@@ -258,6 +260,27 @@ def test_granular_bed_runs_from_a_config_as_compare_bed_runs_it(tmp_path):
                                                    "state_solid_fraction", "state_floor_force")}
     assert units == {"rho": "kg m-1", "u_z": "m s-1", "state_theta": "m2 s-2", "state_face_height": "m",
                      "state_solid_fraction": "1", "state_floor_force": "N"}
+
+
+def test_friction_enters_as_the_losses_effective_restitution():
+    """friction μ: e_eff = e − 1.5 μ exp(−3μ) (Chialvo and Sundaresan 2013) in the two losses
+    only; μ = 0 is e itself, so frictionless runs are unchanged bit for bit."""
+    s = BedSetup()
+    assert s.dissipation_restitution == s.restitution
+    f = s.with_(friction=0.5)
+    assert f.dissipation_restitution == pytest.approx(0.9 - 0.75 * math.exp(-1.5), rel=1e-15)
+    rng = np.random.default_rng(3)
+    b, mu, zf, vf, th, hist, k1 = _state(rng, on_floor=True)
+    args = (1e-6, b.gravity, mu, b.density, b.diameter, b.restitution, b.phi_c, k1, k1 / b.restitution ** 2)
+    smooth = bed_step_numpy(zf, vf, th, hist, *args)
+    rough = bed_step_numpy(zf, vf, th, hist, *args, f.dissipation_restitution)
+    np.testing.assert_array_equal(smooth[0], rough[0])                 # the mechanics the same
+    assert np.all(rough[2] <= smooth[2]) and np.any(rough[2] < smooth[2])   # more loss, colder
+    for bad in (-0.1, 1.5, True):
+        with pytest.raises(ValueError, match="friction"):
+            BedSetup(friction=bad)
+    with pytest.raises(ValueError, match="effective restitution"):
+        BedSetup(restitution=0.1, friction=0.3)
 
 
 def test_granular_bed_config_saves_every_millisecond_unless_told(tmp_path):
@@ -318,3 +341,12 @@ def test_a_bed_passing_the_output_grid_stops_and_keeps_its_snapshots(tmp_path, c
     from bsrflow.io.netcdf import read_snapshots
     data, attrs = read_snapshots(tmp_path / "bed.nc")
     assert data["time"].size > 1 and "output_height" in attrs["status"]
+
+
+def test_long_friction_run_reports_its_flights_and_doubling():
+    from bsrflow.analysis.compare_bed import _long_friction_run
+    lines = []
+    r = _long_friction_run(BedSetup(gamma=4.0, friction=0.5, cycles=6, n_cells=30), lines.append)
+    assert r["friction"] == 0.5 and r["cycles"] == 6 and len(r["flight_time_per_cycle_s"]) == 6
+    assert 0.02 < r["flight_time_s"] < 0.06 and isinstance(r["period_doubled"], bool)
+    assert len(lines) == 1 and "μ = 0.5" in lines[0]

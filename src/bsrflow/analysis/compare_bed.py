@@ -16,9 +16,14 @@ the same measures as the reference's post-processing (``reference/liggghts_bed/r
   alternating successive differences in at least 80 % of the cases; the Γ of the doubling is
   the midpoint between the last single and the first doubled Γ.
 
-The exploratory e = 0.5 runs and the frictional run (μ = 0.5, spring–dashpot, Γ = 3) are
-compared too: the continuum has no friction, so the latter difference is the effect of
-friction, reported, not tuned away.  ``cost_s``: the continuum's wall time for the Γ = 3 run
+The exploratory e = 0.5 runs and the frictional runs (μ = 0.5, spring–dashpot, Γ = 3–4.5) are
+compared too.  The frictional runs twice: against the smooth continuum at Γ = 3 (the effect of
+friction, reported, not tuned away) and against the continuum with friction μ = 0.5, which
+enters only as the collisional losses' effective restitution e − (3/2)μ exp(−3μ) (Chialvo and
+Sundaresan 2013, :attr:`BedSetup.dissipation_restitution`; a closure from the literature, not
+fitted here).  The continuum's frictional period doubling is also measured over 30 cycles
+(``period_doubling_gamma_friction_mu0.5``: its transient outlasts the reference's 11 cycles
+near the doubling).  ``cost_s``: the continuum's wall time for the Γ = 3 run
 (11 cycles, the same simulated time as the LIGGGHTS run; this machine, this run) and
 LIGGGHTS's wall time from the committed summary (its run on this machine type, 2026-12-01,
 serial, see reference/liggghts_bed/README.md).
@@ -43,6 +48,11 @@ __all__ = ["REFERENCE", "flights_from_force", "flight_per_cycle", "period_doubli
 REFERENCE = Path(__file__).resolve().parents[3] / "reference" / "liggghts_bed"
 FLIGHT_SMOOTH_S, FLIGHT_THRESHOLD, FLIGHT_MIN_S = 1e-3, 0.1, 1e-3
 STARTUP_CYCLES = 3
+FRICTION = 0.5
+"""The Coulomb coefficient of the reference's frictional runs."""
+LONG_CYCLES = 30
+LONG_FRICTION_GAMMAS = (3.0, 3.5, 3.75, 4.0, 4.5)
+"""The continuum's frictional runs of :data:`LONG_CYCLES` cycles for its period-doubling Γ."""
 
 
 def flights_from_force(t, force, weight):
@@ -140,7 +150,7 @@ def _compare_one(setup: BedSetup, ref: Path, tag: str, progress=None):
     last6 = last_complete_flights(tau)
     traj, summ = _reference_case(ref, s.gamma, tag)
     t_startup = (STARTUP_CYCLES - 1e-9) * s.period     # the sample at 3T included (3 * 0.05 > 0.15 in floats)
-    case = {"gamma": s.gamma, "restitution": s.restitution,
+    case = {"gamma": s.gamma, "restitution": s.restitution, "friction": s.friction,
             "flight_time_s": float(np.mean(last6)), "flight_time_per_cycle_s": tau.tolist(),
             "period_doubled": period_doubling_measure(last6)["period_doubled"],
             "wall_time_s": res.wall_time, "steps": res.steps,
@@ -163,6 +173,25 @@ def _compare_one(setup: BedSetup, ref: Path, tag: str, progress=None):
             "dem_wall_time_s": float(summ["wall_time_s"]),
         })
     return case, res, traj
+
+
+def _long_friction_run(setup: BedSetup, log=None) -> dict:
+    """The continuum's flights over ``setup.cycles`` cycles and whether its last six are doubled."""
+    from ..numerics.bed_lagrangian import run_bed
+    s = setup
+    res = run_bed(s)
+    tau = flight_per_cycle(flights_from_force(res.t, res.floor_force, s.n_spheres * s.sphere_mass * s.gravity),
+                           s.period, s.cycles)
+    last6 = last_complete_flights(tau)
+    m = period_doubling_measure(last6)
+    run = {"gamma": s.gamma, "friction": s.friction, "cycles": s.cycles, "flight_time_s": float(np.mean(last6)),
+           "flight_time_per_cycle_s": tau.tolist(), "even_odd_split": m["even_odd_split"],
+           "period_doubled": m["period_doubled"], "wall_time_s": res.wall_time}
+    if log:
+        log(f"  Γ = {s.gamma:g}, μ = {s.friction:g}, {s.cycles} cycles: last six flights "
+            f"{' '.join(f'{1e3 * x:.1f}' for x in last6)} ms, period {'doubled' if m['period_doubled'] else 'single'}, "
+            f"{res.wall_time:.1f} s")
+    return run
 
 
 def reference_bed(ref: Path, n_cells=200):
@@ -193,7 +222,7 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
     ref = Path(reference)
     known, params, base = reference_bed(ref, n_cells)
     gammas = [float(g) for g in (known if gammas is None else gammas)]
-    cases, runs, extra = [], {}, []
+    cases, runs, extra, long_runs = [], {}, [], []
 
     def one(setup, tag, into, dem=None):
         case, res, traj = _compare_one(setup, ref, tag, progress)
@@ -201,7 +230,8 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
             case["dem"] = dem
         into.append(case)
         if log:
-            log(f"  Γ = {case['gamma']:g}, e = {case['restitution']:g}{' (' + dem + ')' if dem else ''}: flight "
+            mu = f", μ = {case['friction']:g}" if case["friction"] else ""
+            log(f"  Γ = {case['gamma']:g}, e = {case['restitution']:g}{mu}{' (' + dem + ')' if dem else ''}: flight "
                 f"{1e3 * case['flight_time_s']:.1f} ms (LIGGGHTS {1e3 * case.get('dem_flight_time_s', math.nan):.1f} ms), "
                 f"mass-centre RMS {case.get('mass_centre_rms_over_d', math.nan):.2f} d, {case['wall_time_s']:.1f} s")
         return res, traj
@@ -214,12 +244,18 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
             for g in [float(x) for x in e05["gamma"]]:
                 one(base.with_(gamma=g, restitution=0.5), "_e0.5", extra,
                     "LIGGGHTS Walton-Braun e = 0.5, frictionless")
-            for tag, what in (("_hooke_mu0.5", "LIGGGHTS spring-dashpot, friction 0.5 (the continuum has none)"),
+            for tag, what in (("_hooke_mu0.5", "LIGGGHTS spring-dashpot, friction 0.5; the continuum smooth"),
                               ("_hooke", "LIGGGHTS spring-dashpot, frictionless (the friction run's control)")):
                 one(base.with_(gamma=3.0), tag, extra, what)
+            fric = _read_csv(ref / "flight_vs_gamma_hooke_mu0.5.csv")
+            for g in [float(x) for x in np.atleast_1d(fric["gamma"])]:
+                one(base.with_(gamma=g, friction=FRICTION), "_hooke_mu0.5", extra,
+                    f"LIGGGHTS spring-dashpot, friction {FRICTION:g}; the continuum with friction {FRICTION:g}")
+            for g in LONG_FRICTION_GAMMAS:
+                long_runs.append(_long_friction_run(base.with_(gamma=g, friction=FRICTION, cycles=LONG_CYCLES), log))
     except (KeyboardInterrupt, SimulationError) as exc:
         exc.partial = {"model": MODEL, "fitted_constants": {}, "n_cells": n_cells, "cases": cases,
-                       "extra_cases": extra}
+                       "extra_cases": extra, f"friction_{LONG_CYCLES}_cycles_runs": long_runs}
         raise
     g3 = next((c for c in cases if c["gamma"] == 3.0), None)
     out = {
@@ -235,6 +271,16 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
             "continuum": _doubling_gamma([c["gamma"] for c in cases], [c["period_doubled"] for c in cases]),
             "dem": (params.get("period_doubling_gamma") or {}).get("estimate"),
             "note": "null: no period doubling in the Gamma range (the reference's frictionless e = 0.9 bed has none)"},
+        "period_doubling_gamma_friction_mu0.5": {
+            "continuum": _doubling_gamma([c["gamma"] for c in extra if c["friction"] == FRICTION],
+                                         [c["period_doubled"] for c in extra if c["friction"] == FRICTION]),
+            f"continuum_{LONG_CYCLES}_cycles": _doubling_gamma([r["gamma"] for r in long_runs],
+                                                               [r["period_doubled"] for r in long_runs]),
+            "dem": (params.get("period_doubling_gamma_friction_mu0.5") or {}).get("estimate"),
+            f"continuum_{LONG_CYCLES}_cycles_runs": long_runs,
+            "note": f"the frictional runs (spring-dashpot, mu = {FRICTION:g}) against the continuum with friction "
+                    f"{FRICTION:g} (effective restitution, Chialvo and Sundaresan 2013); 'continuum' over the "
+                    f"reference's 11 cycles, the {LONG_CYCLES}-cycle runs' last six flights for its settled state"},
         "period_doubling_gamma_e0.5": {
             "continuum": _doubling_gamma([c["gamma"] for c in extra if c["restitution"] == 0.5],
                                          [c["period_doubled"] for c in extra if c["restitution"] == 0.5]),
@@ -245,6 +291,8 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                    "note": "Gamma = 3, 11 cycles each; continuum measured in this run, LIGGGHTS from the committed "
                            "summary of its serial run on this machine type (2026-12-01)"},
     }
+    if not include_extra:
+        del out["period_doubling_gamma_friction_mu0.5"]
     if figures:
         _figures(out, runs, base, Path(figures))
     return out
@@ -266,6 +314,12 @@ def _figures(out, runs, base, folder):
         ax.plot([c["gamma"] for c in e05], [1e3 * c["flight_time_s"] for c in e05], "^-", label="continuum, e = 0.5")
         ax.plot([c["gamma"] for c in e05], [1e3 * c.get("dem_flight_time_s", np.nan) for c in e05], "v--",
                 label="LIGGGHTS, e = 0.5")
+    fr = [c for c in out["extra_cases"] if c.get("friction")]
+    if fr:
+        ax.plot([c["gamma"] for c in fr], [1e3 * c["flight_time_s"] for c in fr], "<-",
+                label=f"continuum, μ = {FRICTION:g} (effective e)")
+        ax.plot([c["gamma"] for c in fr], [1e3 * c.get("dem_flight_time_s", np.nan) for c in fr], ">--",
+                label=f"LIGGGHTS spring-dashpot, μ = {FRICTION:g}")
     for c in cases:
         tau = np.asarray(c["flight_time_per_cycle_s"][-6:]) * 1e3
         ax.plot([c["gamma"]] * len(tau), tau, ".", color="C0", alpha=0.4)
@@ -349,7 +403,8 @@ def _main(args) -> int:
     if args.json is not None:
         check_output_file(args.json, "--json")
     ref = Path(args.reference)
-    need = ["flight_vs_gamma.csv", "params.json", "results"] + ([] if args.no_extra else ["flight_vs_gamma_e0.5.csv"])
+    need = ["flight_vs_gamma.csv", "params.json", "results"] + ([] if args.no_extra else [
+        "flight_vs_gamma_e0.5.csv", "flight_vs_gamma_hooke_mu0.5.csv"])
     missing = [n for n in need if not (ref / n).exists()]
     if missing:
         raise ValueError(f"--reference {args.reference}: no {missing[0]} there (the LIGGGHTS data folder holds "
@@ -380,6 +435,11 @@ def _main(args) -> int:
 
     def seconds(v):
         return "not measured" if v is None else f"{v:.1f} s"
+    pf = out.get("period_doubling_gamma_friction_mu0.5")
+    if pf is not None:
+        print(f"period-doubling Γ with friction {FRICTION:g}: continuum {gamma_text(pf['continuum'])} (11 cycles), "
+              f"{gamma_text(pf[f'continuum_{LONG_CYCLES}_cycles'])} ({LONG_CYCLES} cycles); LIGGGHTS "
+              f"{gamma_text(pf['dem'])}")
     print(f"period-doubling Γ: continuum {gamma_text(pd['continuum'])}, LIGGGHTS {gamma_text(pd['dem'])}; "
           f"cost (Γ = 3): continuum {seconds(cost['continuum'])}, LIGGGHTS {seconds(cost['dem'])}; "
           f"total {time.perf_counter() - t0:.1f} s")

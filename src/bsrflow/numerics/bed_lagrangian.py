@@ -52,9 +52,11 @@ __all__ = ["GranularBedColumn", "bed_step", "bed_advance", "stable_dt", "bed_ste
 
 
 @numba.njit(cache=True)
-def bed_step(zf, vf, th, hist, sig, pq, flux, cond, dt, gl, mu, rho_s, d, e, phi_c, k1, k2, cfl, c):
+def bed_step(zf, vf, th, hist, sig, pq, flux, cond, dt, gl, mu, rho_s, d, e, phi_c, k1, k2, cfl, c, e_d):
     """One step (module docstring), in place; ``sig``, ``pq`` (n), ``flux``, ``cond`` (n + 1) are
-    work arrays.  Returns (floor reaction R [Pa], status, Δt bound [s]); status 1: a cell's
+    work arrays; e_d the restitution of the two collisional losses (the spheres' and the floor's;
+    :attr:`BedSetup.dissipation_restitution`, e without friction).  Returns (floor reaction R
+    [Pa], status, Δt bound [s]); status 1: a cell's
     thickness reached 0.  The bound, the next step's Δt, is the smallest over the cells of the
     contact wave's cfl s_j/c and half the explicit limits of the viscous stress, μ s_j/(2ζ_j),
     and of the conduction, (3μ/2)/(κ_f/h_f + κ_f+1/h_f+1) over the cell's two faces (h the
@@ -100,7 +102,7 @@ def bed_step(zf, vf, th, hist, sig, pq, flux, cond, dt, gl, mu, rho_s, d, e, phi
     flux[0] = 0.0
     cond[0] = 0.0
     if reaction > 0.0:
-        flux[0] = -wall_loss(mu / (rho_s * (zf[1] - zf[0])), th[0], rho_s, e, e)
+        flux[0] = -wall_loss(mu / (rho_s * (zf[1] - zf[0])), th[0], rho_s, e, e_d)
     flux[n] = 0.0
     cond[n] = 0.0
     for f in range(1, n):
@@ -118,7 +120,7 @@ def bed_step(zf, vf, th, hist, sig, pq, flux, cond, dt, gl, mu, rho_s, d, e, phi
             t = 0.0
         s = zf[j + 1] - zf[j]
         phi = mu / (rho_s * s)
-        a = dissipation(phi, 1.0, rho_s, d, e) * s / (1.5 * mu)     # γ s/(3μ/2) = a θ^{3/2}
+        a = dissipation(phi, 1.0, rho_s, d, e_d) * s / (1.5 * mu)   # γ s/(3μ/2) = a θ^{3/2}
         th[j] = t / (1.0 + 0.5 * a * dt * math.sqrt(t)) ** 2
         hist[j] = history_update(d * (1.0 - phi_c / phi), hist[j])
     if g_max > 0.0:
@@ -169,7 +171,7 @@ def stable_dt(zf, th, mu, rho_s, d, e, cfl, c):
 
 @numba.njit(cache=True)
 def bed_advance(zf, vf, th, hist, t, t_stop, dt_next, mu, rho_s, d, e, phi_c, k1, k2, g, amp, w, moving,
-                counters, cfl, c):
+                counters, cfl, c, e_d):
     """Steps from t to exactly t_stop, each with the bound its previous step returned
     (``dt_next[0]``: in, the first step's; out, the bound after the last step); the floor
     ϑ = a sin ωt when ``moving`` (g_l = g − a ω² sin ωt), at rest otherwise.  counters: [steps,
@@ -188,7 +190,7 @@ def bed_advance(zf, vf, th, hist, t, t_stop, dt_next, mu, rho_s, d, e, phi_c, k1
             last = True
         gl = g - amp * w * w * math.sin(w * t) if moving else g
         reaction, status, bound = bed_step(zf, vf, th, hist, sig, pq, flux, cond, dt, gl, mu, rho_s, d, e, phi_c,
-                                           k1, k2, cfl, c)
+                                           k1, k2, cfl, c, e_d)
         dt_next[0] = bound
         counters[0] += 1
         t = t_stop if last else t + dt
@@ -198,8 +200,10 @@ def bed_advance(zf, vf, th, hist, t, t_stop, dt_next, mu, rho_s, d, e, phi_c, k1
     return t, reaction
 
 
-def bed_step_numpy(zf, vf, th, hist, dt, gl, mu, rho_s, d, e, phi_c, k1, k2):
-    """Plain NumPy twin of :func:`bed_step` (copies; returns (zf, vf, th, hist, reaction))."""
+def bed_step_numpy(zf, vf, th, hist, dt, gl, mu, rho_s, d, e, phi_c, k1, k2, e_d=None):
+    """Plain NumPy twin of :func:`bed_step` (copies; returns (zf, vf, th, hist, reaction));
+    ``e_d`` the losses' restitution (None: e)."""
+    e_d = e if e_d is None else e_d
     zf, vf, th, hist = (np.array(a, dtype=float) for a in (zf, vf, th, hist))
     n = th.size
     s = np.diff(zf)
@@ -229,12 +233,12 @@ def bed_step_numpy(zf, vf, th, hist, dt, gl, mu, rho_s, d, e, phi_c, k1, k2):
         t0 = max(th[0], 0.0)
         p0 = phi_new[0]
         p_kin = constitutive_numpy(p0, t0, rho_s, d, e)["p"]
-        flux[0] = -(1.0 - e) * p_kin * np.sqrt(2.0 * t0 / np.pi)
+        flux[0] = -(1.0 - e_d) * p_kin * np.sqrt(2.0 * t0 / np.pi)
     phi_f = 0.5 * (phi_new[:-1] + phi_new[1:])
     t_f = 0.5 * (np.maximum(th[:-1], 0.0) + np.maximum(th[1:], 0.0))
     flux[1:n] = -constitutive_numpy(phi_f, t_f, rho_s, d, e)["kappa"] * np.diff(th) / (0.5 * (s[:-1] + s[1:]))
     t = np.maximum(th + dt * (flux[:-1] - flux[1:]) / (1.5 * mu), 0.0)
-    a = constitutive_numpy(phi_new, np.ones(n), rho_s, d, e)["gamma"] * s / (1.5 * mu)
+    a = constitutive_numpy(phi_new, np.ones(n), rho_s, d, e_d)["gamma"] * s / (1.5 * mu)
     th = t / (1.0 + 0.5 * a * dt * np.sqrt(t)) ** 2
     delta = d * (1.0 - phi_c / phi_new)
     hist = np.where(delta > 0.0, np.maximum(hist, delta), 0.0)
@@ -290,7 +294,7 @@ def _compile_bed():
     c = np.zeros(2, dtype=np.int64)
     bed_advance(zf, np.zeros(5), np.zeros(4), np.zeros(4), 0.0, 1e-6, np.array([stable_dt(
         zf, np.zeros(4), 1.0, 1000.0, 1e-3, 0.9, 0.4, 10.0)]), 1.0, 1000.0, 1e-3, 0.9, 0.6, 1.0, 1.0, 9.81, 0.0, 1.0,
-        False, c, 0.4, 10.0)
+        False, c, 0.4, 10.0, 0.9)
 
 
 def static_bed(setup):
@@ -366,7 +370,7 @@ class GranularBedColumn:
     def _advance(self, t0, t1, moving):
         from .solver import SimulationError
         t, _ = bed_advance(self.zf, self.vf, self.th, self.hist, float(t0), float(t1), self.dt_next, *self._args,
-                           moving, self.counters, self.setup.cfl, self.c)
+                           moving, self.counters, self.setup.cfl, self.c, self.setup.dissipation_restitution)
         self.steps = int(self.counters[0])
         if self.counters[1]:
             raise SimulationError(f"bed run stopped at t = {t:.6g} s: a cell's thickness reached 0 "

@@ -163,7 +163,9 @@ class BedSetup:
 
     n_spheres N, diameter d [m], density ρ_s [kg/m³], stiffness K [N/m] (the contact law's
     loading stiffness; the LIGGGHTS runs use a reduced K and so does the continuum), restitution
-    e (spheres and floor), side L [m] of the laterally periodic box, phi_c φ_c and
+    e (spheres and floor), friction μ in [0, 1] (the contacts' Coulomb coefficient, which enters
+    only through the losses' effective restitution, :attr:`dissipation_restitution`; 0: smooth
+    spheres), side L [m] of the laterally periodic box, phi_c φ_c and
     coordination Z of the settled packing, gravity g [m/s²], frequency f [Hz], gamma Γ = aω²/g
     of the floor ϑ(t) = a sin ωt (starting at t = 0 moving up at aω, as the LIGGGHTS deck),
     cycles (the run lasts cycles/f), settle [s]: time on the resting floor before t = 0 after
@@ -182,6 +184,7 @@ class BedSetup:
     density: float = 1200.0
     stiffness: float = 5e4
     restitution: float = 0.9
+    friction: float = 0.0
     side: float = 0.065
     phi_c: float = 0.636
     coordination: float = 5.31
@@ -213,6 +216,13 @@ class BedSetup:
                 raise ValueError(f"{name} = {v!r} is outside the valid range [{lo:g}, {hi:g}]")
         if not (0.0 < self.restitution < 1.0):
             raise ValueError(f"restitution = {self.restitution!r} is outside the valid range (0, 1)")
+        f = self.friction
+        if isinstance(f, bool) or not isinstance(f, (int, float)) or not (0.0 <= f <= 1.0):
+            raise ValueError(f"friction = {f!r} is outside the valid range [0, 1]")
+        if not self.dissipation_restitution > 0.0:
+            raise ValueError(f"friction = {f!r} is outside the valid range at restitution = {self.restitution!r}: the "
+                             f"effective restitution e - 1.5 mu exp(-3 mu) = {self.dissipation_restitution:.3g} must "
+                             "be > 0")
         if not (0.0 < self.phi_c < 0.74):
             raise ValueError(f"phi_c = {self.phi_c!r} is outside the valid range (0, 0.74)")
         if not (0.0 < self.coordination <= 12.0):
@@ -228,6 +238,17 @@ class BedSetup:
     @property
     def omega(self) -> float:
         return 2.0 * math.pi * self.frequency
+
+    @property
+    def dissipation_restitution(self) -> float:
+        """The restitution of the collisional losses (the spheres' γ and the floor's), e_eff =
+        e − (3/2) μ exp(−3μ) with μ = ``friction`` (Chialvo and Sundaresan 2013's effective
+        restitution of frictional spheres, from their simulations of sheared frictional spheres,
+        not fitted here): friction's extra loss in the kinetic theory of smooth spheres; the
+        pressure, viscosities and conductivity keep e, as in their model.  e itself when μ = 0."""
+        if self.friction == 0.0:
+            return self.restitution
+        return self.restitution - 1.5 * self.friction * math.exp(-3.0 * self.friction)
 
     @property
     def amplitude(self) -> float:
