@@ -350,3 +350,20 @@ def test_long_friction_run_reports_its_flights_and_doubling():
     assert r["friction"] == 0.5 and r["cycles"] == 6 and len(r["flight_time_per_cycle_s"]) == 6
     assert 0.02 < r["flight_time_s"] < 0.06 and isinstance(r["period_doubled"], bool)
     assert len(lines) == 1 and "μ = 0.5" in lines[0]
+
+
+def test_bifurcation_figure_reads_the_reference_flights(tmp_path):
+    """The bifurcation diagram's LIGGGHTS branches come from the reference's per-cycle flights."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from bsrflow.analysis import compare_bed as cb
+    dem = cb._dem_flights(cb.REFERENCE / "flight_vs_gamma_hooke_mu0.5.csv")
+    assert sorted(dem) == [3.0, 3.5, 4.0, 4.5] and all(len(v) == 8 for v in dem.values())
+    assert dem[4.5][-1] == pytest.approx(0.0268)                   # its doubled branch
+    out = {"cases": [{"gamma": 3.0, "flight_time_per_cycle_s": [0.03, 0.025, None, 0.026]}],
+           "period_doubling_gamma_friction_mu0.5": {"continuum_30_cycles_runs": [
+               {"gamma": 4.0, "flight_time_per_cycle_s": [0.042, 0.037, 0.043, 0.036]}]}}
+    cb._bifurcation_figure(out, cb.REFERENCE, tmp_path, plt)
+    assert (tmp_path / "bed_bifurcation.png").stat().st_size > 10_000

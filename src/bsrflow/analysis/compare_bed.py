@@ -294,11 +294,60 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
     if not include_extra:
         del out["period_doubling_gamma_friction_mu0.5"]
     if figures:
-        _figures(out, runs, base, Path(figures))
+        _figures(out, runs, base, Path(figures), ref)
     return out
 
 
-def _figures(out, runs, base, folder):
+def _dem_flights(path) -> dict:
+    """{Γ: the reference's per-cycle flights [s] of its measured cycles} from a flight_vs_gamma CSV."""
+    import csv
+    if not Path(path).exists():
+        return {}
+    with open(path, newline="") as fh:
+        rows = [r for r in csv.reader(line for line in fh if not line.startswith("#"))]
+    head, out = rows[0], {}
+    ig, it = head.index("gamma"), head.index("flight_times_s")
+    for r in rows[1:]:
+        out[float(r[ig])] = [float(x) for x in r[it].split()]
+    return out
+
+
+def _bifurcation_figure(out, ref, folder, plt):
+    """The bifurcation diagram: the last six flights per Γ, frictionless and with friction."""
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
+    dem = _dem_flights(ref / "flight_vs_gamma.csv")
+    ax = axes[0]
+    for k, c in enumerate(out["cases"]):
+        tau = [x for x in c["flight_time_per_cycle_s"] if x is not None and not math.isnan(x)][-6:]
+        ax.plot([c["gamma"] - 0.04] * len(tau), 1e3 * np.asarray(tau), "o", ms=3, color="C0",
+                label="continuum (11 cycles)" if k == 0 else None)
+    for k, (g, tau) in enumerate(sorted(dem.items())):
+        ax.plot([g + 0.04] * len(tau[-6:]), 1e3 * np.asarray(tau[-6:]), "s", ms=3, color="C1",
+                label="LIGGGHTS" if k == 0 else None)
+    ax.set_title("frictionless, e = 0.9")
+    ax.set_xlabel("Γ = aω²/g")
+    ax.set_ylabel("flight time of the last six cycles [ms]")
+    ax.legend(fontsize=8)
+    ax = axes[1]
+    pf = out.get("period_doubling_gamma_friction_mu0.5") or {}
+    long_runs = pf.get(f"continuum_{LONG_CYCLES}_cycles_runs", [])
+    for k, r in enumerate(long_runs):
+        tau = [x for x in r["flight_time_per_cycle_s"] if x is not None and not math.isnan(x)][-6:]
+        ax.plot([r["gamma"] - 0.02] * len(tau), 1e3 * np.asarray(tau), "o", ms=3, color="C0",
+                label=f"continuum ({LONG_CYCLES} cycles)" if k == 0 else None)
+    for k, (g, tau) in enumerate(sorted(_dem_flights(ref / "flight_vs_gamma_hooke_mu0.5.csv").items())):
+        ax.plot([g + 0.02] * len(tau[-6:]), 1e3 * np.asarray(tau[-6:]), "s", ms=3, color="C1",
+                label="LIGGGHTS (spring-dashpot)" if k == 0 else None)
+    ax.set_title(f"friction μ = {FRICTION:g} (continuum: effective restitution)")
+    ax.set_xlabel("Γ = aω²/g")
+    ax.legend(fontsize=8)
+    fig.suptitle("Bifurcation diagram of the vibrated bed (f = 20 Hz): a doubled period shows as two branches")
+    fig.tight_layout()
+    fig.savefig(folder / "bed_bifurcation.png", dpi=120)
+    plt.close(fig)
+
+
+def _figures(out, runs, base, folder, ref=REFERENCE):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -330,6 +379,7 @@ def _figures(out, runs, base, folder):
     fig.tight_layout()
     fig.savefig(folder / "bed_flight_vs_gamma.png", dpi=120)
     plt.close(fig)
+    _bifurcation_figure(out, Path(ref), folder, plt)
     if 3.0 in runs:
         res, traj = runs[3.0]
         fig, ax = plt.subplots(figsize=(7, 4))
