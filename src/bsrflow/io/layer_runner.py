@@ -466,28 +466,11 @@ class LayerJob(_LayerBase):
         return self.steps0 + self.steps_run
 
 
-class PackingBedJob(_LayerBase):
-    """``kind = "packing_bed"``: the n-D packing continuum
-    (:class:`bsrflow.numerics.packing_nd.EulerianPackingND`) through the packing controller
-    :func:`bsrflow.numerics.controller.drive_events`; checkpoints of its named fields (the
-    conserved state, history included) and its tracers; a 2-D bed's units per metre of depth."""
-
-    per_depth = True
-
-    def prepare(self):
-        self.disc = self.setup.discretisation(self.tracers)
-        self.grid, self.motion = self.disc.grid, self.disc.motion
-        self.name = f"{self.grid.dim}-D packing solver"
-
-    def _attrs(self):
-        return {"config": self.cfg.text, "config_resolved": self.cfg.resolved_text(),
-                "scheme": f"packing_{self.disc.name}", "kernel": "packing", "dimension": self.grid.dim,
-                "scenario": f"packing_bed_{self.grid.dim}d", "diameter": float(self.setup.diameter)}
-
-    def _state(self):
-        if not self.cfg.state:
-            return None
-        return self.disc.field_schema(per_depth=True), lambda: self.disc.fields
+class _ControllerJob(_LayerBase):
+    """What the jobs of the discretisations driven by the packing controller share
+    (:func:`bsrflow.numerics.controller.drive_events`): ``self.disc`` with ``advance``,
+    ``apply_velocity_jump``, ``observe``, named ``fields`` / ``load_fields``, ``counters`` and
+    ``tracer_positions`` (None without tracers); checkpoints of its named fields."""
 
     def restore(self, ck):
         try:
@@ -498,13 +481,6 @@ class PackingBedJob(_LayerBase):
             self.disc.set_tracers(self._restored_tracers(ck))
         self.disc.counters[0] = int(ck.steps)
         self.disc.steps = int(ck.steps)
-
-    def notes(self):
-        if self.setup.stiffness_factor >= 1.0:
-            return []
-        return [f"reduced contact stiffness: K x {self.setup.stiffness_factor:.4g}, impact Mach number "
-                f"M = {self.setup.impact_mach():.3g}; its cost is measured on the 1-D column only (docs/model.md, "
-                "\"Stiffness\")"]
 
     def compile(self, t0):
         self.disc.advance(t0, t0)
@@ -529,7 +505,38 @@ class PackingBedJob(_LayerBase):
         return int(self.disc.counters[0])
 
 
-class GranularBedJob(_LayerBase):
+class PackingBedJob(_ControllerJob):
+    """``kind = "packing_bed"``: the n-D packing continuum
+    (:class:`bsrflow.numerics.packing_nd.EulerianPackingND`) through the packing controller
+    :func:`bsrflow.numerics.controller.drive_events`; checkpoints of its named fields (the
+    conserved state, history included) and its tracers; a 2-D bed's units per metre of depth."""
+
+    per_depth = True
+
+    def prepare(self):
+        self.disc = self.setup.discretisation(self.tracers)
+        self.grid, self.motion = self.disc.grid, self.disc.motion
+        self.name = f"{self.grid.dim}-D packing solver"
+
+    def _attrs(self):
+        return {"config": self.cfg.text, "config_resolved": self.cfg.resolved_text(),
+                "scheme": f"packing_{self.disc.name}", "kernel": "packing", "dimension": self.grid.dim,
+                "scenario": f"packing_bed_{self.grid.dim}d", "diameter": float(self.setup.diameter)}
+
+    def _state(self):
+        if not self.cfg.state:
+            return None
+        return self.disc.field_schema(per_depth=True), lambda: self.disc.fields
+
+    def notes(self):
+        if self.setup.stiffness_factor >= 1.0:
+            return []
+        return [f"reduced contact stiffness: K x {self.setup.stiffness_factor:.4g}, impact Mach number "
+                f"M = {self.setup.impact_mach():.3g}; its cost is measured on the 1-D column only (docs/model.md, "
+                "\"Stiffness\")"]
+
+
+class GranularBedJob(_ControllerJob):
     """``kind = "granular_bed"``: the vibrated bed of packing stress and granular temperature
     (:class:`bsrflow.physics.granular_bed.BedSetup`, the model of ``bsrflow compare-bed``) on its
     Lagrangian cells (:class:`bsrflow.numerics.bed_lagrangian.GranularBedColumn`) through the
@@ -543,7 +550,6 @@ class GranularBedJob(_LayerBase):
         from ..numerics.bed_lagrangian import GranularBedColumn
         self.disc = GranularBedColumn(self.setup)
         self.grid, self.motion = self.disc.grid, self.disc.motion
-        self._t = 0.0
 
     def _attrs(self):
         return {"config": self.cfg.text, "config_resolved": self.cfg.resolved_text(),
@@ -555,37 +561,7 @@ class GranularBedJob(_LayerBase):
     def _state(self):
         if not self.cfg.state:
             return None
-        return self.disc.output_schema(), lambda: self.disc.output_fields(self._t)
-
-    def restore(self, ck):
-        try:
-            self.disc.load_fields(ck.fields)
-        except ValueError as exc:
-            raise ConfigError("--resume", f"the checkpoint's state does not match the config: {exc}") from None
-        self.disc.counters[0] = int(ck.steps)
-        self.disc.steps = int(ck.steps)
-
-    def compile(self, t0):
-        self.disc.advance(t0, t0)
-
-    def integrate(self, t0, save_times, checkpoint_times, observers, progress, on_checkpoint):
-        from ..numerics.controller import drive_events
-        disc = self.disc
-
-        def save(t):
-            self._t = t
-            u, rho = disc.observe()
-            for obs in observers:
-                obs(t, u, rho, None)
-            if progress is not None:
-                progress(t)
-
-        drive_events(t0, self.t_end, save_times, self.motion.jumps_between(t0, self.t_end), checkpoint_times,
-                     advance=disc.advance, apply_jump=disc.apply_velocity_jump, save=save,
-                     on_event=lambda t: on_checkpoint(t, disc.fields))
-
-    def total_steps(self):
-        return int(self.disc.counters[0])
+        return self.disc.output_schema(), self.disc.output_fields
 
 
 def _run_files(cfg: LayerConfig, out):

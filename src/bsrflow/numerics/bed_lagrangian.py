@@ -347,6 +347,7 @@ class GranularBedColumn:
         self.th = np.full(n, float(s.theta_seed))
         self.counters = np.zeros(2, dtype=np.int64)
         self.steps = 0
+        self.t = 0.0
         self.motion = SinusoidalVibration(s.amplitude, s.frequency, start=0.0)
         self._grid = None
         self._args = (self.mu, s.density, s.diameter, s.restitution, s.phi_c, self.k1, self.k2, s.gravity,
@@ -372,6 +373,7 @@ class GranularBedColumn:
         t, _ = bed_advance(self.zf, self.vf, self.th, self.hist, float(t0), float(t1), self.dt_next, *self._args,
                            moving, self.counters, self.setup.cfl, self.c, self.setup.dissipation_restitution)
         self.steps = int(self.counters[0])
+        self.t = t
         if self.counters[1]:
             raise SimulationError(f"bed run stopped at t = {t:.6g} s: a cell's thickness reached 0 "
                                   f"({int(self.counters[0])} steps)", None, t, None, "stopped")
@@ -389,6 +391,10 @@ class GranularBedColumn:
     def apply_velocity_jump(self, dv):
         """The floor's velocity jumps by dv [m/s]: the bed's, relative to it, by −dv."""
         self.vf -= dv
+
+    def tracer_positions(self):
+        """None: the bed carries no tracers (its cells' faces are its material lines)."""
+        return None
 
     def floor_force(self, t) -> float:
         """The floor's reaction on the bed [N] (area × R) at time t [s] (ϑ'' of the floor at t)."""
@@ -438,10 +444,11 @@ class GranularBedColumn:
                 "delta_max": (("cell",), "m", "largest overlap per contact reached (the packing law's history)"),
                 "floor_force": ((), "N", "the floor's force on the bed")}
 
-    def output_fields(self, t) -> dict:
+    def output_fields(self) -> dict:
+        """The fields of :meth:`output_schema` now (at time :attr:`t` [s], the end of the last advance)."""
         return {"face_height": self.zf, "face_velocity": self.vf,
                 "solid_fraction": self.mu / (self.setup.density * np.diff(self.zf)), "theta": self.th,
-                "delta_max": self.hist, "floor_force": np.float64(self.floor_force(t))}
+                "delta_max": self.hist, "floor_force": np.float64(self.floor_force(self.t))}
 
 
 def run_bed(setup, progress=None) -> BedResult:
