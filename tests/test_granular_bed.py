@@ -322,6 +322,14 @@ def test_interrupted_granular_bed_resumes_bit_for_bit(tmp_path):
     ("[layer]\nkind = \"granular_bed\"\n[output]\nvtk = true\n", "output.vtk"),
     ("[layer]\nkind = \"granular_bed\"\n[tracers]\npositions = [[0.01]]\n", "tracers"),
     ("[layer]\nkind = \"granular_bed\"\nbox_width = 0.1\n", "layer.box_width"),
+    ("[layer]\nkind = \"granular_bed\"\nstiffness = 1\n", "layer.stiffness"),          # overlap 2.8 d
+    ("[layer]\nkind = \"granular_bed\"\noutput_height = 0.02\n", "layer.output_height"),   # below the bed
+    ("[layer]\nkind = \"granular_bed\"\noutput_height = 0.001\n", "layer.output_height"),
+    ("[layer]\nkind = \"granular_bed\"\nn_spheres = 1\n", "layer.n_spheres"),          # 0.005 d deep
+    ("[layer]\nkind = \"granular_bed\"\nfrequency = 0.1\n", "layer.frequency"),        # a 1-km column
+    ("[layer]\nkind = \"granular_bed\"\ncfl = 1e-9\n", "layer.cfl"),                   # 1e14 steps
+    ("[layer]\nkind = \"granular_bed\"\nn_cells = 5000000\n", "layer.n_cells"),
+    ("[layer]\nkind = \"granular_bed\"\nfrequency = 10000\ncycles = 2\n", "default 0.001 s"),
 ])
 def test_granular_bed_config_refuses_bad_input_in_one_line(tmp_path, capsys, extra, field):
     cfg = tmp_path / "bed.toml"
@@ -332,9 +340,30 @@ def test_granular_bed_config_refuses_bad_input_in_one_line(tmp_path, capsys, ext
     assert not (tmp_path / "bed.nc").exists()
 
 
+def test_advance_in_chunks_takes_the_steps_of_one_call():
+    """The compiled loop returns after max_steps (so that signals are handled between calls); the
+    calls together take exactly the steps of one call."""
+    from bsrflow.numerics.bed_lagrangian import GranularBedColumn, bed_advance
+    s = BedSetup(gamma=3.0, n_cells=20)
+    one, parts = GranularBedColumn(s), GranularBedColumn(s)
+    for col in (one, parts):
+        col.apply_velocity_jump(s.amplitude * s.omega)
+    one.STEP_CHUNK_CELL_STEPS = 1 << 40
+    parts.STEP_CHUNK_CELL_STEPS = 20 * 7                            # 7 steps per call
+    one._advance(0.0, 0.01, True)
+    parts._advance(0.0, 0.01, True)
+    assert one.steps == parts.steps > 100
+    for a, b in zip(one.fields.values(), parts.fields.values()):
+        np.testing.assert_array_equal(a, b)
+    c = np.zeros(2, dtype=np.int64)
+    t, _ = bed_advance(one.zf, one.vf, one.th, one.hist, 0.01, 1.0, one.dt_next, *one._args, True, c, s.cfl, one.c,
+                       s.restitution, 5)
+    assert c[0] == 5 and 0.01 < t < 1.0
+
+
 def test_a_bed_passing_the_output_grid_stops_and_keeps_its_snapshots(tmp_path, capsys):
     cfg = tmp_path / "bed.toml"
-    cfg.write_text(GRANULAR_CONFIG.replace("settle = 0.005", "output_height = 0.06"))
+    cfg.write_text(GRANULAR_CONFIG.replace("settle = 0.005", "output_height = 0.052"))
     assert main(["run", str(cfg), "--out", str(tmp_path / "bed.nc")]) == 3
     err = capsys.readouterr().err
     assert "passed the output grid's top" in err and "output_height" in err

@@ -204,6 +204,9 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
                           "rho and u on the grid, is written in every file)")
     t_end = float(setup.t_end)
     if float(setup.save_every) > t_end:
+        if kind == "granular_bed" and "save_every" not in layer:
+            raise ConfigError("layer.save_every", f"not given: its default {GRANULAR_BED_SAVE_EVERY:g} s is outside the "
+                              f"valid range (0, t_end = {t_end:g}] s (t_end = cycles / frequency); set it")
         raise ConfigError("layer.save_every", f"{setup.save_every!r} is outside the valid range (0, t_end = {t_end:g}] s")
     ck = out.get("checkpoint_every")
     if ck is not None:
@@ -548,8 +551,23 @@ class GranularBedJob(_ControllerJob):
 
     def prepare(self):
         from ..numerics.bed_lagrangian import GranularBedColumn
-        self.disc = GranularBedColumn(self.setup)
+        self.disc = GranularBedColumn(self.setup, settle=False)      # settled in integrate (a resume does not)
         self.grid, self.motion = self.disc.grid, self.disc.motion
+        self.restored = False
+
+    def restore(self, ck):
+        super().restore(ck)
+        self.restored = True
+
+    def compile(self, t0):
+        from ..numerics.bed_lagrangian import _compile_bed
+        _compile_bed()
+
+    def integrate(self, t0, save_times, checkpoint_times, observers, progress, on_checkpoint):
+        if not self.restored:
+            self.disc.settle()
+        self.disc.t = t0
+        super().integrate(t0, save_times, checkpoint_times, observers, progress, on_checkpoint)
 
     def _attrs(self):
         return {"config": self.cfg.text, "config_resolved": self.cfg.resolved_text(),

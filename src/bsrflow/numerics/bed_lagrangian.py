@@ -171,18 +171,22 @@ def stable_dt(zf, th, mu, rho_s, d, e, cfl, c):
 
 @numba.njit(cache=True)
 def bed_advance(zf, vf, th, hist, t, t_stop, dt_next, mu, rho_s, d, e, phi_c, k1, k2, g, amp, w, moving,
-                counters, cfl, c, e_d):
-    """Steps from t to exactly t_stop, each with the bound its previous step returned
-    (``dt_next[0]``: in, the first step's; out, the bound after the last step); the floor
-    ϑ = a sin ωt when ``moving`` (g_l = g − a ω² sin ωt), at rest otherwise.  counters: [steps,
-    status]; returns (t, last floor reaction [Pa])."""
+                counters, cfl, c, e_d, max_steps):
+    """Steps from t towards t_stop, each with the bound its previous step returned
+    (``dt_next[0]``: in, the first step's; out, the bound after the last step), at most
+    ``max_steps`` of them (the caller calls again until t = t_stop: the same steps as one call,
+    and Ctrl-C / SIGTERM handled in between); the floor ϑ = a sin ωt when ``moving``
+    (g_l = g − a ω² sin ωt), at rest otherwise.  counters: [steps, status]; returns (t, last
+    floor reaction [Pa])."""
     n = th.shape[0]
     sig = np.empty(n)
     pq = np.empty(n)
     flux = np.empty(n + 1)
     cond = np.empty(n + 1)
     reaction = 0.0
-    while t < t_stop:
+    taken = 0
+    while t < t_stop and taken < max_steps:
+        taken += 1
         dt = dt_next[0]
         last = False
         if t + dt >= t_stop:
@@ -294,7 +298,7 @@ def _compile_bed():
     c = np.zeros(2, dtype=np.int64)
     bed_advance(zf, np.zeros(5), np.zeros(4), np.zeros(4), 0.0, 1e-6, np.array([stable_dt(
         zf, np.zeros(4), 1.0, 1000.0, 1e-3, 0.9, 0.4, 10.0)]), 1.0, 1000.0, 1e-3, 0.9, 0.6, 1.0, 1.0, 9.81, 0.0, 1.0,
-        False, c, 0.4, 10.0, 0.9)
+        False, c, 0.4, 10.0, 0.9, 10)
 
 
 def static_bed(setup):
@@ -322,8 +326,9 @@ class GranularBedColumn:
 
     State: the faces' heights ``zf`` [m] and velocities ``vf`` [m/s] (floor frame), the cells'
     θ [m²/s²] and δ_max [m], the next step's Δt bound [s] (:func:`bed_step`).  Built at t = 0:
-    the bed at rest (:func:`static_bed`, θ = θ_seed), then ``setup.settle`` s on the resting
-    floor (before t = 0).  The floor is ϑ = a sin ωt from t = 0 (:attr:`motion`: its velocity
+    the bed at rest (:func:`static_bed`, θ = θ_seed), then (unless ``settle`` is False: a run
+    that restores a checkpoint, or that calls :meth:`settle` later) ``setup.settle`` s on the
+    resting floor (before t = 0).  The floor is ϑ = a sin ωt from t = 0 (:attr:`motion`: its velocity
     jumps by aω at t = 0, which the controller applies as ``apply_velocity_jump``).
 
     ``grid`` is the fixed output column (:meth:`observe`): bins of d/10 from the floor to
@@ -334,7 +339,7 @@ class GranularBedColumn:
 
     name = "granular_bed"
 
-    def __init__(self, setup):
+    def __init__(self, setup, settle=True):
         from ..physics.motion import SinusoidalVibration
         s = self.setup = setup
         n = s.n_cells
@@ -354,7 +359,12 @@ class GranularBedColumn:
                       s.amplitude, s.omega)
         self.dt_next = np.array([stable_dt(self.zf, self.th, self.mu, s.density, s.diameter, s.restitution, s.cfl,
                                            self.c)])
-        _compile_bed()
+        if settle:
+            self.settle()
+
+    def settle(self):
+        """``setup.settle`` s on the resting floor, from t = −settle to 0 (in steps of at most 1 ms)."""
+        s = self.setup
         if s.settle > 0.0:
             t_set = -float(s.settle)
             k_set = max(1, int(math.ceil(s.settle / 1e-3)))
@@ -368,10 +378,18 @@ class GranularBedColumn:
             self._grid = self.setup.grid()
         return self._grid
 
+    STEP_CHUNK_CELL_STEPS = 1 << 22
+    """Cell-steps per compiled call (about 0.05 s): Ctrl-C and SIGTERM are handled between calls."""
+
     def _advance(self, t0, t1, moving):
         from .solver import SimulationError
-        t, _ = bed_advance(self.zf, self.vf, self.th, self.hist, float(t0), float(t1), self.dt_next, *self._args,
-                           moving, self.counters, self.setup.cfl, self.c, self.setup.dissipation_restitution)
+        chunk = max(1, self.STEP_CHUNK_CELL_STEPS // self.setup.n_cells)
+        t, t1 = float(t0), float(t1)
+        while True:
+            t, _ = bed_advance(self.zf, self.vf, self.th, self.hist, t, t1, self.dt_next, *self._args, moving,
+                               self.counters, self.setup.cfl, self.c, self.setup.dissipation_restitution, chunk)
+            if t >= t1 or self.counters[1]:
+                break
         self.steps = int(self.counters[0])
         self.t = t
         if self.counters[1]:

@@ -156,6 +156,13 @@ def constitutive_numpy(phi, theta, rho_s, d, e):
     }
 
 
+MAX_STATIC_OVERLAP = 0.05
+"""The largest overlap per contact [d] the bed's weight may cause at its bottom (the packing bed's
+bound, :data:`bsrflow.physics.packing_bed.MAX_STATIC_OVERLAP`)."""
+MAX_STEPS = 1e9
+"""The most time steps a bed run may need (the contact wave's step at the cells of the bed at rest)."""
+
+
 @dataclass(frozen=True)
 class BedSetup:
     """The vibrated bed (SI units; defaults: reference/liggghts_bed/params.json, the LIGGGHTS
@@ -233,6 +240,43 @@ class BedSetup:
             v = getattr(self, name)
             if not (isinstance(v, (int, np.integer)) and not isinstance(v, bool) and lo <= v <= 10_000_000):
                 raise ValueError(f"{name} = {v!r} is outside the valid range: integers in [{lo}, 1e7]")
+        self._check_bed()
+
+    def _check_bed(self):
+        """Refuse (ValueError naming the field, with its valid range at these settings) a bed that is
+        not a continuum of this model or that no run could finish: thinner than a diameter, so soft
+        that its weight overlaps the bottom contacts by more than :data:`MAX_STATIC_OVERLAP` d (the
+        contact law's small-overlap limit; the faces of :func:`static_bed` would cross), a default
+        output column above 100 m, an ``output_height`` the bed at rest does not fit in, or more
+        than :data:`MAX_STEPS` time steps."""
+        n_min = math.ceil(self.n_spheres * self.diameter / self.rest_height - 1e-9)
+        if self.rest_height < self.diameter:
+            raise ValueError(f"n_spheres = {self.n_spheres!r} is outside the valid range at these settings, "
+                             f"[{n_min}, 1e7]: the bed would be {self.rest_height / self.diameter:.3g} d deep (at "
+                             "least 1 d: a thinner bed is not a continuum)")
+        overlap = self.mass_per_area * self.gravity * self.area / self.layer_stiffness      # δ at the bottom [m]
+        if overlap > MAX_STATIC_OVERLAP * self.diameter:
+            k_min = self.stiffness * overlap / (MAX_STATIC_OVERLAP * self.diameter)
+            raise ValueError(f"stiffness = {self.stiffness!r} N/m is outside the valid range at these settings, "
+                             f"[{k_min:.3g}, 1e12] N/m: the bed's weight would overlap its bottom contacts by "
+                             f"{overlap / self.diameter:.3g} d (at most {MAX_STATIC_OVERLAP:g} d)")
+        if self.output_height is None and self.energy_bound_height() > 100.0:
+            raise ValueError(f"frequency = {self.frequency!r} Hz is outside the valid range at gamma = {self.gamma!r}: "
+                             f"the floor's speed {self.floor_speed():.3g} m/s makes the default output column "
+                             f"{self.energy_bound_height():.3g} m high (at most 100 m; output_height sets it)")
+        if self.output_height is not None and self.output_height <= self.rest_height:
+            raise ValueError(f"output_height = {self.output_height!r} is outside the valid range at these settings, "
+                             f"({self.rest_height:.4g}, 100] m: the bed at rest is {self.rest_height:.4g} m high")
+        per_cell = self.rest_height / self.n_cells
+        steps = (self.t_end + self.settle) * self.contact_wave_speed() / (self.cfl * per_cell)
+        if steps > MAX_STEPS:
+            n_max = int(self.n_cells * MAX_STEPS / steps)
+            if n_max >= 4:
+                raise ValueError(f"n_cells = {self.n_cells!r} is outside the valid range at these settings, [4, "
+                                 f"{n_max}]: the run would take about {steps:.2g} time steps (at most {MAX_STEPS:.0e})")
+            raise ValueError(f"cfl = {self.cfl!r} is outside the valid range at these settings: the run would take "
+                             f"about {steps:.2g} time steps (at most {MAX_STEPS:.0e}; fewer cycles, cells or a "
+                             "smaller stiffness shorten it)")
 
     # derived ------------------------------------------------------------------------------------
     @property
