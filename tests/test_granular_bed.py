@@ -396,3 +396,14 @@ def test_bifurcation_figure_reads_the_reference_flights(tmp_path):
                {"gamma": 4.0, "flight_time_per_cycle_s": [0.042, 0.037, 0.043, 0.036]}]}}
     cb._bifurcation_figure(out, cb.REFERENCE, tmp_path, plt)
     assert (tmp_path / "bed_bifurcation.png").stat().st_size > 10_000
+
+
+def test_flight_phases_take_the_longest_finished_flight_of_the_last_cycles():
+    from bsrflow.analysis.compare_bed import flight_phases
+    T = 0.05
+    flights = [(0.01, 0.04), (0.06, 0.062), (0.06 + 0.005, 0.09), (0.11, 0.14), (0.16, float("nan"))]
+    off, on = flight_phases(flights, T, cycles=4, n=2)
+    # cycles 1 (the longer of its two flights: 0.065-0.09) and 2 (0.11-0.14); cycle 3 unfinished
+    assert off == pytest.approx(np.mean([0.065 / T - 1, 0.11 / T - 2]))
+    assert on == pytest.approx(np.mean([0.09 / T - 1, 0.14 / T - 2]))
+    assert flight_phases([], T, 4) == (None, None)

@@ -93,6 +93,22 @@ def flight_per_cycle(flights, period, cycles):
     return out
 
 
+def flight_phases(flights, period, cycles, n=6):
+    """(mean take-off phase, mean landing phase) [fractions of a cycle, from the take-off cycle's
+    start] of the longest finished flight of each of the last ``n`` cycles that have one (the
+    flights of :func:`flights_from_force`); (None, None) without any."""
+    best = {}
+    for t_off, t_on in flights:
+        c = int(t_off // period)
+        if 0 <= c < cycles and not math.isnan(t_on) and (c not in best or t_on - t_off > best[c][1] - best[c][0]):
+            best[c] = (t_off, t_on)
+    keep = sorted(best)[-n:]
+    if not keep:
+        return None, None
+    return (float(np.mean([best[c][0] / period - c for c in keep])),
+            float(np.mean([best[c][1] / period - c for c in keep])))
+
+
 def last_complete_flights(tau, n=6) -> np.ndarray:
     """The last ``n`` finished flights of the per-cycle flight times ``tau`` [s] (NaN or None:
     a flight still going at the end of the run, dropped before counting).  Counting back from
@@ -146,14 +162,17 @@ def _compare_one(setup: BedSetup, ref: Path, tag: str, progress=None):
     s = setup
     res = run_bed(s, progress=progress)
     weight = s.n_spheres * s.sphere_mass * s.gravity
-    tau = flight_per_cycle(flights_from_force(res.t, res.floor_force, weight), s.period, s.cycles)
+    flights = flights_from_force(res.t, res.floor_force, weight)
+    tau = flight_per_cycle(flights, s.period, s.cycles)
     last6 = last_complete_flights(tau)
     traj, summ = _reference_case(ref, s.gamma, tag)
+    takeoff, landing = flight_phases(flights, s.period, s.cycles)
     t_startup = (STARTUP_CYCLES - 1e-9) * s.period     # the sample at 3T included (3 * 0.05 > 0.15 in floats)
     case = {"gamma": s.gamma, "restitution": s.restitution, "friction": s.friction,
             "flight_time_s": float(np.mean(last6)), "flight_time_per_cycle_s": tau.tolist(),
             "period_doubled": period_doubling_measure(last6)["period_doubled"],
             "wall_time_s": res.wall_time, "steps": res.steps,
+            "takeoff_phase": takeoff, "landing_phase": landing,
             "mass_centre_mean_over_d": float(np.mean(res.mass_centre[res.t >= t_startup]) / s.diameter),
             "top_max_over_d": float(res.top.max() / s.diameter)}
     if summ is not None:
@@ -170,9 +189,21 @@ def _compare_one(setup: BedSetup, ref: Path, tag: str, progress=None):
             "dem_mass_centre_mean_over_d": float(summ["com_rel_mean_over_d"]),
             "dem_top_max_over_d": float(summ["top99_rel_max_over_d"]),
             "dem_period_doubled": period_doubling_measure(dem_last6)["period_doubled"],
+            **_dem_phases(ref, s, tag),
             "dem_wall_time_s": float(summ["wall_time_s"]),
         })
     return case, res, traj
+
+
+def _dem_phases(ref: Path, s: BedSetup, tag: str) -> dict:
+    """The reference run's mean take-off and landing phases (its flights.csv, as :func:`flight_phases`)."""
+    path = ref / "results" / f"gamma_{s.gamma:.2f}_N2000_L13d{tag}" / "flights.csv"
+    if not path.exists():
+        return {}
+    rows = np.atleast_1d(_read_csv(path))
+    flights = [(float(r["t_takeoff_s"]), float(r["t_landing_s"])) for r in rows]
+    takeoff, landing = flight_phases(flights, s.period, s.cycles)
+    return {"dem_takeoff_phase": takeoff, "dem_landing_phase": landing}
 
 
 def _long_friction_run(setup: BedSetup, log=None) -> dict:
