@@ -137,6 +137,10 @@ def test_compare_bed_command_writes_the_schema(tmp_path, capsys):
         assert isinstance(case[key], float) and math.isfinite(case[key])
     assert set(data["period_doubling_gamma"]) >= {"continuum", "dem"}
     assert data["cost_s"]["continuum"] > 0 and data["cost_s"]["dem"] > 0
+    assert set(data["closures"]) == {"kinetic_theory", "packing_stress", "friction"}
+    assert "period_doubling_gamma_friction_mu0.5" not in data                 # --no-extra: no friction runs
+    assert 0.0 < case["takeoff_phase"] < case["landing_phase"] < 2.0
+    assert 0.0 < case["dem_takeoff_phase"] < case["dem_landing_phase"] < 2.0
     assert "| 3 |" in capsys.readouterr().out
 
 

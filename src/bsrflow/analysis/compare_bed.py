@@ -295,6 +295,13 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
         "inputs": {"phi_c": base.phi_c, "coordination": base.coordination,
                    "note": "phi_c and the sphere-sphere Z of the settled LIGGGHTS bed (reference README), measured, "
                            "not fitted"},
+        "closures": {
+            "kinetic_theory": "Lun, Savage, Jeffrey and Chepurniy (1984) in Gidaspow's (1994) form, Carnahan-Starling "
+                              "g0 (bsrflow.physics.granular_bed)",
+            "packing_stress": "Walton-Braun law per layer, stiffness 3 Z phi_c K A / (5 pi d^2) (affine uniaxial "
+                              "compression of an isotropic packing)",
+            "friction": f"only in the runs with friction {FRICTION:g}: the collisional losses' effective restitution "
+                        "e - 1.5 mu exp(-3 mu) (Chialvo and Sundaresan 2013)"},
         "n_cells": n_cells,
         "cases": cases,
         "extra_cases": extra,
