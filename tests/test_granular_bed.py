@@ -319,31 +319,6 @@ def test_interrupted_granular_bed_resumes_bit_for_bit(tmp_path):
         np.testing.assert_array_equal(a[k], b[k])
 
 
-@pytest.mark.parametrize("extra, field", [
-    ("[layer]\nkind = \"granular_bed\"\ngamma = -1\n", "layer.gamma"),
-    ("[layer]\nkind = \"granular_bed\"\noutput_height = 0\n", "layer.output_height"),
-    ("[layer]\nkind = \"granular_bed\"\nn_cells = 2\n", "layer.n_cells"),
-    ("[layer]\nkind = \"granular_bed\"\n[output]\nvtk = true\n", "output.vtk"),
-    ("[layer]\nkind = \"granular_bed\"\n[tracers]\npositions = [[0.01]]\n", "tracers"),
-    ("[layer]\nkind = \"granular_bed\"\nbox_width = 0.1\n", "layer.box_width"),
-    ("[layer]\nkind = \"granular_bed\"\nstiffness = 1\n", "layer.stiffness"),          # overlap 2.8 d
-    ("[layer]\nkind = \"granular_bed\"\noutput_height = 0.02\n", "layer.output_height"),   # below the bed
-    ("[layer]\nkind = \"granular_bed\"\noutput_height = 0.001\n", "layer.output_height"),
-    ("[layer]\nkind = \"granular_bed\"\nn_spheres = 1\n", "layer.n_spheres"),          # 0.005 d deep
-    ("[layer]\nkind = \"granular_bed\"\nfrequency = 0.1\n", "layer.frequency"),        # a 1-km column
-    ("[layer]\nkind = \"granular_bed\"\ncfl = 1e-9\n", "layer.cfl"),                   # 1e14 steps
-    ("[layer]\nkind = \"granular_bed\"\nn_cells = 5000000\n", "layer.n_cells"),
-    ("[layer]\nkind = \"granular_bed\"\nfrequency = 10000\ncycles = 2\n", "default 0.001 s"),
-])
-def test_granular_bed_config_refuses_bad_input_in_one_line(tmp_path, capsys, extra, field):
-    cfg = tmp_path / "bed.toml"
-    cfg.write_text(extra)
-    assert main(["run", str(cfg), "--out", str(tmp_path / "bed.nc")]) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and field in err[0]
-    assert not (tmp_path / "bed.nc").exists()
-
-
 def test_advance_in_chunks_takes_the_steps_of_one_call():
     """The compiled loop returns after max_steps (so that signals are handled between calls); the
     calls together take exactly the steps of one call."""

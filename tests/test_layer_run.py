@@ -89,6 +89,21 @@ def test_layer_config_runs_into_netcdf_and_vtk(tmp_path, run_layer_file):
     ("[layer]\nkind = 'vibrated_box'\ndim = 2\namplitude = 1e300\n", "layer.amplitude"),
     ("[layer]\ndim = 2\naverage = 'foo'\n", "layer.average"),
     ("[layer]\ndim = 2\ndomain_height = 0.001\n", "layer.domain_height: domain_height = 0.001 m is outside"),
+    # kind = "granular_bed" (2026-12-03; the settings no run could use from a review of the new kind)
+    ("[layer]\nkind = \"granular_bed\"\ngamma = -1\n", "layer.gamma"),
+    ("[layer]\nkind = \"granular_bed\"\noutput_height = 0\n", "layer.output_height"),
+    ("[layer]\nkind = \"granular_bed\"\nn_cells = 2\n", "layer.n_cells"),
+    ("[layer]\nkind = \"granular_bed\"\n[output]\nvtk = true\n", "output.vtk"),
+    ("[layer]\nkind = \"granular_bed\"\n[tracers]\npositions = [[0.01]]\n", "tracers"),
+    ("[layer]\nkind = \"granular_bed\"\nbox_width = 0.1\n", "layer.box_width"),
+    ("[layer]\nkind = \"granular_bed\"\nstiffness = 1\n", "layer.stiffness"),          # overlap 2.8 d
+    ("[layer]\nkind = \"granular_bed\"\noutput_height = 0.02\n", "layer.output_height"),   # below the bed
+    ("[layer]\nkind = \"granular_bed\"\noutput_height = 0.001\n", "layer.output_height"),
+    ("[layer]\nkind = \"granular_bed\"\nn_spheres = 1\n", "layer.n_spheres"),          # 0.005 d deep
+    ("[layer]\nkind = \"granular_bed\"\nfrequency = 0.1\n", "layer.frequency"),        # a 1-km column
+    ("[layer]\nkind = \"granular_bed\"\ncfl = 1e-9\n", "layer.cfl"),                   # 1e14 steps
+    ("[layer]\nkind = \"granular_bed\"\nn_cells = 5000000\n", "layer.n_cells"),
+    ("[layer]\nkind = \"granular_bed\"\nfrequency = 10000\ncycles = 2\n", "layer.save_every: not given: its default 0.001 s"),
 ])
 def test_bad_layer_configs_exit_2_with_one_line(text, field, tmp_path, capsys):
     cfg = tmp_path / "bad.toml"
@@ -96,6 +111,7 @@ def test_bad_layer_configs_exit_2_with_one_line(text, field, tmp_path, capsys):
     assert main(["run", str(cfg), "--out", str(tmp_path / "bad.nc")]) == 2
     err = capsys.readouterr().err.strip()
     assert f"error: {field}" in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "bad.nc").exists()
     assert not (tmp_path / "bad.nc").exists()
 
 

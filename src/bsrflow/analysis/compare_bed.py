@@ -160,11 +160,7 @@ def _compare_one(setup: BedSetup, ref: Path, tag: str, progress=None):
     from ..numerics.bed_lagrangian import run_bed
 
     s = setup
-    res = run_bed(s, progress=progress)
-    weight = s.n_spheres * s.sphere_mass * s.gravity
-    flights = flights_from_force(res.t, res.floor_force, weight)
-    tau = flight_per_cycle(flights, s.period, s.cycles)
-    last6 = last_complete_flights(tau)
+    res, flights, tau, last6 = _continuum_flights(s, progress)
     traj, summ = _reference_case(ref, s.gamma, tag)
     takeoff, landing = flight_phases(flights, s.period, s.cycles)
     t_startup = (STARTUP_CYCLES - 1e-9) * s.period     # the sample at 3T included (3 * 0.05 > 0.15 in floats)
@@ -206,14 +202,20 @@ def _dem_phases(ref: Path, s: BedSetup, tag: str) -> dict:
     return {"dem_takeoff_phase": takeoff, "dem_landing_phase": landing}
 
 
+def _continuum_flights(s: BedSetup, progress=None):
+    """(the run, its flights, the flight per cycle [s], the last six finished flights [s]) of the
+    continuum bed ``s`` (:func:`bsrflow.numerics.bed_lagrangian.run_bed`)."""
+    from ..numerics.bed_lagrangian import run_bed
+    res = run_bed(s, progress=progress)
+    flights = flights_from_force(res.t, res.floor_force, s.n_spheres * s.sphere_mass * s.gravity)
+    tau = flight_per_cycle(flights, s.period, s.cycles)
+    return res, flights, tau, last_complete_flights(tau)
+
+
 def _long_friction_run(setup: BedSetup, log=None) -> dict:
     """The continuum's flights over ``setup.cycles`` cycles and whether its last six are doubled."""
-    from ..numerics.bed_lagrangian import run_bed
     s = setup
-    res = run_bed(s)
-    tau = flight_per_cycle(flights_from_force(res.t, res.floor_force, s.n_spheres * s.sphere_mass * s.gravity),
-                           s.period, s.cycles)
-    last6 = last_complete_flights(tau)
+    res, _, tau, last6 = _continuum_flights(s)
     m = period_doubling_measure(last6)
     run = {"gamma": s.gamma, "friction": s.friction, "cycles": s.cycles, "flight_time_s": float(np.mean(last6)),
            "flight_time_per_cycle_s": tau.tolist(), "even_odd_split": m["even_odd_split"],
@@ -353,29 +355,28 @@ def _dem_flights(path) -> dict:
 def _bifurcation_figure(out, ref, folder, plt):
     """The bifurcation diagram: the last six flights per Γ, frictionless and with friction."""
     fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
-    dem = _dem_flights(ref / "flight_vs_gamma.csv")
+
+    def branches(ax, runs, shift, marker, color, label):
+        """The last six finished flights of each (Γ, per-cycle flights) in ``runs`` [ms]."""
+        for k, (g, tau) in enumerate(runs):
+            tau = [x for x in tau if x is not None and not math.isnan(x)][-6:]
+            ax.plot([g + shift] * len(tau), 1e3 * np.asarray(tau), marker, ms=3, color=color,
+                    label=label if k == 0 else None)
+
     ax = axes[0]
-    for k, c in enumerate(out["cases"]):
-        tau = [x for x in c["flight_time_per_cycle_s"] if x is not None and not math.isnan(x)][-6:]
-        ax.plot([c["gamma"] - 0.04] * len(tau), 1e3 * np.asarray(tau), "o", ms=3, color="C0",
-                label="continuum (11 cycles)" if k == 0 else None)
-    for k, (g, tau) in enumerate(sorted(dem.items())):
-        ax.plot([g + 0.04] * len(tau[-6:]), 1e3 * np.asarray(tau[-6:]), "s", ms=3, color="C1",
-                label="LIGGGHTS" if k == 0 else None)
+    branches(ax, [(c["gamma"], c["flight_time_per_cycle_s"]) for c in out["cases"]], -0.04, "o", "C0",
+             "continuum (11 cycles)")
+    branches(ax, sorted(_dem_flights(ref / "flight_vs_gamma.csv").items()), 0.04, "s", "C1", "LIGGGHTS")
     ax.set_title("frictionless, e = 0.9")
     ax.set_xlabel("Γ = aω²/g")
     ax.set_ylabel("flight time of the last six cycles [ms]")
     ax.legend(fontsize=8)
     ax = axes[1]
     pf = out.get("period_doubling_gamma_friction_mu0.5") or {}
-    long_runs = pf.get(f"continuum_{LONG_CYCLES}_cycles_runs", [])
-    for k, r in enumerate(long_runs):
-        tau = [x for x in r["flight_time_per_cycle_s"] if x is not None and not math.isnan(x)][-6:]
-        ax.plot([r["gamma"] - 0.02] * len(tau), 1e3 * np.asarray(tau), "o", ms=3, color="C0",
-                label=f"continuum ({LONG_CYCLES} cycles)" if k == 0 else None)
-    for k, (g, tau) in enumerate(sorted(_dem_flights(ref / "flight_vs_gamma_hooke_mu0.5.csv").items())):
-        ax.plot([g + 0.02] * len(tau[-6:]), 1e3 * np.asarray(tau[-6:]), "s", ms=3, color="C1",
-                label="LIGGGHTS (spring-dashpot)" if k == 0 else None)
+    branches(ax, [(r["gamma"], r["flight_time_per_cycle_s"]) for r in pf.get(f"continuum_{LONG_CYCLES}_cycles_runs", [])],
+             -0.02, "o", "C0", f"continuum ({LONG_CYCLES} cycles)")
+    branches(ax, sorted(_dem_flights(ref / "flight_vs_gamma_hooke_mu0.5.csv").items()), 0.02, "s", "C1",
+             "LIGGGHTS (spring-dashpot)")
     ax.set_title(f"friction μ = {FRICTION:g} (continuum: effective restitution)")
     ax.set_xlabel("Γ = aω²/g")
     ax.legend(fontsize=8)

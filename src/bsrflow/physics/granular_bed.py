@@ -59,6 +59,8 @@ from dataclasses import asdict, dataclass
 import numba
 import numpy as np
 
+from .packing_bed import MAX_STATIC_OVERLAP, MAX_STEPS      # the packing bed's bounds, the same here
+
 __all__ = ["BedSetup", "g0_cs", "kinetic_pressure", "bulk_viscosity", "shear_viscosity", "pressure_and_viscosity",
            "conductivity",
            "dissipation", "wall_loss", "constitutive_numpy"]
@@ -154,13 +156,6 @@ def constitutive_numpy(phi, theta, rho_s, d, e):
                   + 2.0 * rho_s * d * phi ** 2 * g * (1.0 + e) * st / SQRT_PI),
         "gamma": 12.0 * (1.0 - e * e) * g * rho_s * phi ** 2 * t * st / (d * SQRT_PI),
     }
-
-
-MAX_STATIC_OVERLAP = 0.05
-"""The largest overlap per contact [d] the bed's weight may cause at its bottom (the packing bed's
-bound, :data:`bsrflow.physics.packing_bed.MAX_STATIC_OVERLAP`)."""
-MAX_STEPS = 1e9
-"""The most time steps a bed run may need (the contact wave's step at the cells of the bed at rest)."""
 
 
 @dataclass(frozen=True)
