@@ -141,6 +141,13 @@ def test_compare_bed_command_writes_the_schema(tmp_path, capsys):
     assert "period_doubling_gamma_friction_mu0.5" not in data                 # --no-extra: no friction runs
     assert 0.0 < case["takeoff_phase"] < case["landing_phase"] < 2.0
     assert 0.0 < case["dem_takeoff_phase"] < case["dem_landing_phase"] < 2.0
+    temp = case["temperature"]                      # the reference has temperature.csv at Γ = 3
+    n = len(temp["phase"])
+    assert n == 40 and all(len(temp[k]) == n for k in ("continuum_theta_m2_s2", "dem_theta_m2_s2",
+                                                         "dem_theta_z_m2_s2", "dem_theta_h_m2_s2"))
+    assert min(temp["continuum_theta_m2_s2"]) > 0 and min(temp["dem_theta_m2_s2"]) > 0
+    assert temp["cycle_mean_ratio"] == pytest.approx(np.mean(temp["continuum_theta_m2_s2"])
+                                                     / np.mean(temp["dem_theta_m2_s2"]))
     assert "| 3 |" in capsys.readouterr().out
 
 
@@ -386,3 +393,74 @@ def test_flight_phases_take_the_longest_finished_flight_of_the_last_cycles():
     assert off == pytest.approx(np.mean([0.065 / T - 1, 0.11 / T - 2]))
     assert on == pytest.approx(np.mean([0.09 / T - 1, 0.14 / T - 2]))
     assert flight_phases([], T, 4) == (None, None)
+
+
+def _reference_script():
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "reference" / "liggghts_bed" / "run_liggghts.py"
+    spec = importlib.util.spec_from_file_location("run_liggghts", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_continuum_coarse_grained_temperature_is_the_gaussian_integral():
+    """W @ f equals the Gaussian integral by fine quadrature; a uniform θ with a uniform velocity
+    gives θ_z = θ_h = θ where there is material; a velocity varying across the kernel adds to θ_z
+    only (its variance about the coarse-grained mean)."""
+    from bsrflow.numerics.bed_lagrangian import coarse_grained_temperature, coarse_graining_weights
+    rng = np.random.default_rng(4)
+    zf = np.cumsum(np.r_[0.0, rng.uniform(0.5e-3, 2e-3, 30)])
+    z = np.linspace(-5e-3, zf[-1] + 5e-3, 57)
+    sigma = 2.5e-3
+    f = rng.uniform(0.1, 0.6, 30)
+    fine = np.linspace(zf[0], zf[-1], 200001)
+    ffine = f[np.clip(np.searchsorted(zf, fine, side="right") - 1, 0, 29)]
+    g = np.exp(-0.5 * ((z[:, None] - fine[None, :]) / sigma) ** 2) / (sigma * math.sqrt(2 * math.pi))
+    direct = np.trapezoid(g * ffine[None, :], fine, axis=1)
+    np.testing.assert_allclose(coarse_graining_weights(zf, z, sigma) @ f, direct, atol=2e-5)
+    theta = np.full(30, 0.01)
+    n, nz, nh = coarse_grained_temperature(zf, f, theta, np.full(30, -0.3), z, sigma)
+    has = n > 1e-3
+    np.testing.assert_allclose(nz[has] / n[has], 0.01, rtol=1e-9)
+    np.testing.assert_allclose(nh[has] / n[has], 0.01, rtol=1e-12)
+    _, nz2, nh2 = coarse_grained_temperature(zf, f, theta, np.linspace(-1, 1, 30), z, sigma)
+    assert np.all(nz2[has] > nz[has]) and np.allclose(nh2, nh)
+
+
+def test_reference_temperature_post_processing_recovers_the_velocity_variance(tmp_path):
+    """The reference script's temperature.csv / temperature_profiles.csv on synthetic frames:
+    spheres with a mean velocity varying with height plus Gaussian fluctuations of variance 0.01
+    (vertical) and 0.004 m²/s² (horizontal) give those variances; no fluctuation gives 0."""
+    mod = _reference_script()
+    rng = np.random.default_rng(7)
+    meta = {"dt_s": mod.PERIOD / mod.SAMPLES_PER_CYCLE, "amplitude_m": 0.0, "cycles_startup": 1,
+            "cycles_measured": 1, "lx_m": 0.065}
+    n = 20000
+    frames = []
+    for k in range(2 * mod.SAMPLES_PER_CYCLE):
+        z = rng.uniform(0.0, 10 * mod.D, n)
+        v = np.empty((n, 3))
+        v[:, 0:2] = rng.normal(0.0, math.sqrt(0.004), (n, 2))
+        v[:, 2] = 0.5 + 20.0 * z + rng.normal(0.0, 0.1, n)     # a mean-velocity gradient of 20 /s
+        frames.append((k, np.arange(n), np.column_stack([np.zeros(n), np.zeros(n), z, v])))
+    zg = np.arange(-1.0, 12.0, 0.1) * mod.D
+    mod.write_temperature(tmp_path, frames, meta, zg)
+    t = np.genfromtxt(tmp_path / "temperature.csv", delimiter=",", names=True, skip_header=1)
+    assert len(t) == mod.SAMPLES_PER_CYCLE
+    # the coarse-grained mean (σ = d/2) of a linear profile is exact inside; the edges bias θ_z up a little
+    np.testing.assert_allclose(t["theta_z_m2_s2"], 0.01, rtol=0.05)
+    np.testing.assert_allclose(t["theta_h_m2_s2"], 0.004, rtol=0.03)
+    np.testing.assert_allclose(t["theta_m2_s2"], (t["theta_z_m2_s2"] + 2 * t["theta_h_m2_s2"]) / 3, rtol=1e-4)
+    p = np.genfromtxt(tmp_path / "temperature_profiles.csv", delimiter=",", names=True, skip_header=1)
+    inside = (p["z_rel_over_d"] > 2) & (p["z_rel_over_d"] < 8)
+    np.testing.assert_allclose(p["theta_z_phase0"][inside], 0.01 + 20.0 ** 2 * (mod.D / 2) ** 2, rtol=0.1)
+    np.testing.assert_allclose(p["theta_h_phase_pi"][inside], 0.004, rtol=0.1)
+    np.testing.assert_allclose(p["phi_phase0"][inside], n * mod.VOL / (10 * mod.D * 0.065 ** 2), rtol=0.05)
+    for fr in frames:
+        fr[2][:, 3:6] = [0.1, -0.2, 0.3]
+    mod.write_temperature(tmp_path, frames, meta, zg)
+    t = np.genfromtxt(tmp_path / "temperature.csv", delimiter=",", names=True, skip_header=1)
+    assert np.all(np.abs(t["theta_m2_s2"]) < 1e-12)

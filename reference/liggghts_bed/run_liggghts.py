@@ -505,6 +505,85 @@ def cg_profile(z: np.ndarray, zg: np.ndarray, lx: float, w: float = D / 2) -> np
     return VOL * np.exp(-0.5 * s * s).sum(axis=1) / (w * math.sqrt(2 * math.pi) * lx * lx)
 
 
+def cg_temperature(z: np.ndarray, v: np.ndarray, zg: np.ndarray, w: float = D / 2):
+    """Coarse-grained kinetic moments on the grid zg for one frame (same Gaussian as
+    :func:`cg_profile`): returns (n, n*theta_z, n*theta_h, theta_z_i, theta_h_i) with
+    n(z) = sum_i G(z - z_i) [1/m], n theta_a = sum_i G v_ia^2 - (sum_i G v_ia)^2 / n (the
+    fluctuation about the local coarse-grained mean velocity U(z)), theta_z for the vertical
+    component, theta_h = (theta_xx + theta_yy) / 2 (a mean-velocity gradient adds its variance
+    across the kernel, w^2 (dU/dz)^2, to n theta_z / n); and per sphere the squared fluctuations
+    (v_iz - U_z(z_i))^2 and ((v_ix - U_x)^2 + (v_iy - U_y)^2) / 2 with U interpolated at z_i."""
+    s = (zg[:, None] - z[None, :]) / w
+    g = np.exp(-0.5 * s * s) / (w * math.sqrt(2 * math.pi))
+    n = g.sum(axis=1)
+    safe = np.where(n > 0, n, 1.0)
+    out, per = [], []
+    for cols in ((2,), (0, 1)):
+        nth = np.zeros_like(zg)
+        pi = np.zeros(len(z))
+        for c in cols:
+            p = g @ v[:, c]
+            nth += (g @ (v[:, c] ** 2) - p * p / safe) / len(cols)
+            pi += (v[:, c] - np.interp(z, zg, p / safe)) ** 2 / len(cols)
+        out.append(np.maximum(nth, 0.0))
+        per.append(pi)
+    return n, out[0], out[1], per[0], per[1]
+
+
+def write_temperature(out: Path, frames, meta: dict, zg: np.ndarray) -> None:
+    """temperature.csv (the bed's mean granular temperature against the phase of the cycle)
+    and temperature_profiles.csv (theta against height at the four floor phases), from dump
+    frames with vx, vy, vz; mean over the measured cycles."""
+    dt, amp = meta["dt_s"], meta["amplitude_m"]
+    n0 = meta["cycles_startup"]
+    ncyc = n0 + meta["cycles_measured"]
+    spc = SAMPLES_PER_CYCLE
+    mean_z, mean_h = np.zeros(spc), np.zeros(spc)
+    count = np.zeros(spc)
+    acc = {q: [np.zeros_like(zg) for _ in range(3)] for q in range(4)}
+    nq = np.zeros(4)
+    for (step, ids, x) in frames:
+        tt = step * dt
+        k = int(round(tt / (PERIOD / spc)))
+        cyc, sub = divmod(k, spc)
+        if not (n0 <= cyc < ncyc):
+            continue
+        zr = x[:, 2] - amp * np.sin(OMEGA * tt)
+        n, nthz, nthh, pz, ph = cg_temperature(zr, x[:, 3:6], zg)
+        mean_z[sub] += pz.mean()
+        mean_h[sub] += ph.mean()
+        count[sub] += 1
+        if sub % (spc // 4) == 0:
+            q = sub // (spc // 4)
+            for a, b in zip(acc[q], (n, nthz, nthh)):
+                a += b
+            nq[q] += 1
+    with open(out / "temperature.csv", "w") as f:
+        f.write("# the bed's mean granular temperature against the floor phase (fraction of a cycle, floor at"
+                " A sin(2 pi phase)), mean over the measured cycles: theta_z = <(v_z - U_z(z_i))^2>, theta_h ="
+                " <((v_x - U_x)^2 + (v_y - U_y)^2)/2> over the spheres, U the coarse-grained (Gaussian sigma = d/2)"
+                " mean velocity at the sphere's height; theta = (theta_z + 2 theta_h)/3 [m^2/s^2]\n")
+        f.write("phase_cycles,theta_z_m2_s2,theta_h_m2_s2,theta_m2_s2\n")
+        for k in range(spc):
+            tz, th = mean_z[k] / max(count[k], 1), mean_h[k] / max(count[k], 1)
+            f.write(f"{k / spc:.4f},{tz:.5e},{th:.5e},{(tz + 2 * th) / 3:.5e}\n")
+    with open(out / "temperature_profiles.csv", "w") as f:
+        f.write("# granular temperature against the height above the floor at floor phase omega t = 0, pi/2, pi,"
+                " 3pi/2, mean over the measured cycles: theta_a(z) = sum n theta_a / sum n over the frames (n,"
+                " n theta_a: cg_temperature, Gaussian sigma = d/2; a mean-velocity gradient adds its variance"
+                " across the kernel, sigma^2 (dU/dz)^2, to theta_z); z = vertical, h = horizontal (mean of x, y)"
+                " [m^2/s^2]; phi: the solid fraction on the same frames\n")
+        names = ("phase0", "phase_pi2", "phase_pi", "phase_3pi2")
+        f.write("z_rel_m,z_rel_over_d," + ",".join(f"phi_{q},theta_z_{q},theta_h_{q}" for q in names) + "\n")
+        for i, zz in enumerate(zg):
+            row = []
+            for q in range(4):
+                n, nz_, nh_ = (a[i] for a in acc[q])
+                phi = VOL * n / (meta["lx_m"] ** 2 * max(nq[q], 1))
+                row += [f"{phi:.5f}", f"{nz_ / n:.5e}" if n > 0 else "nan", f"{nh_ / n:.5e}" if n > 0 else "nan"]
+            f.write(f"{zz:.5e},{zz / D:.3f}," + ",".join(row) + "\n")
+
+
 # ---------------------------------------------------------------- vibration
 
 def vibrate(gamma: float, n: int, lateral: float, model: str, mu: float,
@@ -558,8 +637,8 @@ variable dpp equal c_mpp
 variable dpw equal c_mpw
 variable na equal atoms
 fix pr all print {FORCE_EVERY} "${{st}} ${{zf}} ${{fz}} ${{zc}} ${{dpp}} ${{dpw}} ${{na}}" file floor.txt screen no title "# step z_floor_mesh F_z_on_floor com_z max_overlap_pair max_overlap_wall atoms"
-dump da all custom {ndump} bed.dump id x y z vz
-dump_modify da sort id format "%d %.8g %.8g %.8g %.6g"
+dump da all custom {ndump} bed.dump id x y z vx vy vz
+dump_modify da sort id format "%d %.8g %.8g %.8g %.6g %.6g %.6g"
 thermo_style    custom step time atoms f_floor[3]
 thermo          {SAMPLES_PER_CYCLE * ndump}
 thermo_modify   lost ignore norm no
@@ -730,7 +809,7 @@ def postprocess(name: str) -> dict:
         top99 = np.percentile(z, 99)
         bot01 = np.percentile(z, 1)
         zmin = z.min()
-        vcom = x[:, 3].mean()
+        vcom = x[:, -1].mean()          # vz: the last column (dumps before 2026-12-03 had no vx, vy)
         tr.append((tt, tt / PERIOD, zfl, com, com - zfl, top99, top99 - zfl,
                    bot01 - zfl - D / 2, zmin - zfl - D / 2, vcom))
         k = int(round(tt / (PERIOD / spc)))
@@ -740,6 +819,8 @@ def postprocess(name: str) -> dict:
             prof_acc[q] += cg_profile(z - zfl, zg, lx)
             prof_n[q] += 1
     tr = np.array(tr)
+    if frames and frames[0][2].shape[1] >= 6:
+        write_temperature(out, frames, meta, zg)
     with open(out / "trajectory.csv", "w") as f:
         f.write("# every 1/(40 f); lab frame z (floor rest position z=0); *_rel = relative to the floor;"
                 " top99 = height below which 99% of sphere centres lie; gap_* = (1st percentile / lowest"

@@ -188,7 +188,32 @@ def _compare_one(setup: BedSetup, ref: Path, tag: str, progress=None):
             **_dem_phases(ref, s, tag),
             "dem_wall_time_s": float(summ["wall_time_s"]),
         })
+        temp = _temperature_against_phase(res, ref, s, tag)
+        if temp is not None:
+            case["temperature"] = temp
     return case, res, traj
+
+
+def _temperature_against_phase(res, ref: Path, s: BedSetup, tag: str):
+    """The bed's mass-mean granular temperature against the floor phase, continuum beside the
+    reference's temperature.csv (when that run has one), each averaged over the measured cycles
+    (3 to the end); None without the file.  The continuum's θ is isotropic; the reference's θ is
+    (θ_z + 2θ_h)/3, its components given too.  [m²/s²]"""
+    path = ref / "results" / f"gamma_{s.gamma:.2f}_N2000_L13d{tag}" / "temperature.csv"
+    if not path.exists():
+        return None
+    dem = _read_csv(path)
+    phase = np.asarray(dem["phase_cycles"], dtype=float)
+    times = (np.arange(STARTUP_CYCLES, s.cycles)[:, None] + phase[None, :]) * s.period
+    cont = np.interp(times, res.t, res.theta_mean).mean(axis=0)
+    dth = np.asarray(dem["theta_m2_s2"], dtype=float)
+    return {"phase": phase.tolist(), "continuum_theta_m2_s2": cont.tolist(), "dem_theta_m2_s2": dth.tolist(),
+            "dem_theta_z_m2_s2": np.asarray(dem["theta_z_m2_s2"], dtype=float).tolist(),
+            "dem_theta_h_m2_s2": np.asarray(dem["theta_h_m2_s2"], dtype=float).tolist(),
+            "cycle_mean_ratio": float(cont.mean() / dth.mean()),
+            "note": "the bed's mass-mean theta against the floor phase (floor at A sin(2 pi phase)), mean over "
+                    "cycles 3-10; LIGGGHTS: (theta_z + 2 theta_h)/3 of the spheres' fluctuations about the "
+                    "coarse-grained (sigma = d/2) mean velocity; continuum: the cells' mean theta"}
 
 
 def _dem_phases(ref: Path, s: BedSetup, tag: str) -> dict:
@@ -434,14 +459,14 @@ def _figures(out, runs, base, folder, ref=REFERENCE):
         fig.tight_layout()
         fig.savefig(folder / "bed_trajectory_gamma3.png", dpi=120)
         plt.close(fig)
-        prof = REFERENCE / "results" / "gamma_3.00_N2000_L13d" / "profiles.csv"
+        prof = Path(ref) / "results" / "gamma_3.00_N2000_L13d" / "profiles.csv"
         fig, axes = plt.subplots(1, 4, figsize=(11, 4), sharey=True)
-        ref = _read_csv(prof) if prof.exists() else None
+        ref_phi = _read_csv(prof) if prof.exists() else None
         labels = {"phase0": "ωt = 0", "phase_pi2": "ωt = π/2", "phase_pi": "ωt = π", "phase_3pi2": "ωt = 3π/2"}
         for axk, (key, (z, phi)) in zip(axes, res.profiles.items()):
             axk.plot(phi, z / d, label="continuum (CG σ = d/2)")
-            if ref is not None:
-                axk.plot(ref[f"phi_{key}"], ref["z_rel_over_d"], "--", label="LIGGGHTS (CG σ = d/2)")
+            if ref_phi is not None:
+                axk.plot(ref_phi[f"phi_{key}"], ref_phi["z_rel_over_d"], "--", label="LIGGGHTS (CG σ = d/2)")
             axk.set_title(labels[key])
             axk.set_xlabel("solid fraction φ")
         axes[0].set_ylabel("height above the floor [d]")
@@ -450,6 +475,46 @@ def _figures(out, runs, base, folder, ref=REFERENCE):
         fig.tight_layout()
         fig.savefig(folder / "bed_profiles_gamma3.png", dpi=120)
         plt.close(fig)
+        g3 = next((c for c in cases if c["gamma"] == 3.0), None)
+        if g3 is not None and "temperature" in g3:
+            _temperature_figure(g3["temperature"], res, Path(ref) / "results" / "gamma_3.00_N2000_L13d",
+                                base, folder, plt)
+
+
+def _temperature_figure(temp, res, dem_dir: Path, base, folder, plt):
+    """bed_temperature_gamma3.png: the bed's mean θ against the phase, and θ against height at the
+    four floor phases (reference: vertical and horizontal components where its φ > 0.01)."""
+    d = base.diameter
+    fig, axes = plt.subplots(1, 5, figsize=(15, 4))
+    ph = np.asarray(temp["phase"])
+    ax = axes[0]
+    ax.plot(ph, temp["continuum_theta_m2_s2"], "-", label="continuum θ")
+    ax.plot(ph, temp["dem_theta_m2_s2"], "k--", label="LIGGGHTS (θ_z + 2θ_h)/3")
+    ax.plot(ph, temp["dem_theta_z_m2_s2"], ":", color="C3", label="LIGGGHTS θ_z")
+    ax.plot(ph, temp["dem_theta_h_m2_s2"], ":", color="C2", label="LIGGGHTS θ_h")
+    ax.set_xlabel("floor phase [cycles] (floor at A sin 2π·phase)")
+    ax.set_ylabel("bed's mass-mean θ [m²/s²]")
+    ax.set_title("Γ = 3: the bed's mean θ")
+    ax.legend(fontsize=7)
+    path = dem_dir / "temperature_profiles.csv"
+    dem = _read_csv(path) if path.exists() else None
+    labels = {"phase0": "ωt = 0", "phase_pi2": "ωt = π/2", "phase_pi": "ωt = π", "phase_3pi2": "ωt = 3π/2"}
+    for axk, (key, (z, tz, th)) in zip(axes[1:], res.theta_profiles.items()):
+        axk.plot(th, z / d, "-", color="C0", label="continuum θ (horizontal CG)")
+        axk.plot(tz, z / d, "-", color="C1", label="continuum vertical CG")
+        if dem is not None:
+            m = np.asarray(dem[f"phi_{key}"]) > 0.01
+            zz = np.asarray(dem["z_rel_over_d"])[m]
+            axk.plot(np.asarray(dem[f"theta_z_{key}"])[m], zz, ":", color="C3", label="LIGGGHTS θ_z")
+            axk.plot(np.asarray(dem[f"theta_h_{key}"])[m], zz, ":", color="C2", label="LIGGGHTS θ_h")
+        axk.set_title(labels[key])
+        axk.set_xlabel("θ [m²/s²] (CG σ = d/2)")
+    axes[1].set_ylabel("height above the floor [d]")
+    axes[1].legend(fontsize=7)
+    fig.suptitle("Γ = 3, e = 0.9, frictionless: granular temperature, mean over cycles 3–10")
+    fig.tight_layout()
+    fig.savefig(folder / "bed_temperature_gamma3.png", dpi=120)
+    plt.close(fig)
 
 
 def format_table(out) -> str:

@@ -266,7 +266,13 @@ class BedResult:
     (z [m], φ)} the continuum's solid fraction convolved with a Gaussian of σ = d/2 (the
     reference smooths point volumes at the sphere centres with the same kernel),
     averaged over the cycles from 3 on at the floor phases ωt = 0, π/2, π, 3π/2; steps, wall_time
-    [s] (the compiled loop and the bookkeeping, compilation excluded), status."""
+    [s] (the compiled loop and the bookkeeping, compilation excluded), status; theta_mean [m²/s²]
+    the bed's mass-mean granular temperature at every save; theta_profiles: {phase name: (z [m],
+    θ_z, θ_h)} [m²/s²] coarse-grained as the reference's temperature_profiles.csv (at the same
+    phases and cycles as ``profiles``): θ_h = Σ CG(φθ) / Σ CG(φ), θ_z = Σ [CG(φ(θ + u²)) −
+    CG(φu)²/CG(φ)] / Σ CG(φ) over the frames (u the cells' mean velocity; the velocity's variation
+    inside a cell left out), so that the continuum's isotropic θ meets the reference's vertical
+    and horizontal fluctuations through the same coarse graining."""
 
     t: np.ndarray
     mass_centre: np.ndarray
@@ -278,18 +284,38 @@ class BedResult:
     wall_time: float
     status: str = "ok"
     info: dict = field(default_factory=dict)
+    theta_mean: np.ndarray = None
+    theta_profiles: dict = field(default_factory=dict)
 
 
 PHASES = {"phase0": 0.0, "phase_pi2": 0.25, "phase_pi": 0.5, "phase_3pi2": 0.75}
 """Floor phases of the solid-fraction profiles (fraction of a cycle), as in the reference."""
 
 
+def coarse_graining_weights(zf, z, sigma):
+    """W[k, j] = ∫_{zf_j}^{zf_{j+1}} G_σ(z_k − z') dz' (exact), so that W @ f is the Gaussian
+    coarse graining at the heights z of a field f constant in each cell [zf_j, zf_{j+1}]."""
+    from scipy.special import erf
+    e = erf((zf[None, :] - z[:, None]) / (math.sqrt(2.0) * sigma))
+    return 0.5 * (e[:, 1:] - e[:, :-1])
+
+
 def coarse_grained_fraction(zf, phi, z, sigma):
     """∫ φ(z') G_σ(z − z') dz' of the piecewise-constant φ on the cells [zf_j, zf_{j+1}] (exact)."""
-    from scipy.special import erf
-    a = (zf[None, :-1] - z[:, None]) / (math.sqrt(2.0) * sigma)
-    b = (zf[None, 1:] - z[:, None]) / (math.sqrt(2.0) * sigma)
-    return 0.5 * np.sum(phi[None, :] * (erf(b) - erf(a)), axis=1)
+    return coarse_graining_weights(zf, z, sigma) @ phi
+
+
+def coarse_grained_temperature(zf, phi, theta, u, z, sigma):
+    """The kinetic moments of the cells [zf_j, zf_{j+1}] (solid fraction φ, granular temperature θ
+    [m²/s²], velocity u [m/s], each constant in a cell) coarse-grained with a Gaussian of σ [m] at
+    the heights z [m], as the reference does with the spheres (reference/liggghts_bed,
+    ``cg_temperature``): (n, nθ_z, nθ_h) with n = CG(φ), nθ_h = CG(φθ) and nθ_z = CG(φ(θ + u²)) −
+    CG(φu)²/CG(φ) ≥ 0 (the vertical fluctuation about the coarse-grained mean velocity: θ is
+    isotropic, the mean flow vertical)."""
+    w = coarse_graining_weights(zf, z, sigma)
+    n, nth_h, p, q = w @ phi, w @ (phi * theta), w @ (phi * u), w @ (phi * (theta + u * u))
+    nth_z = np.maximum(q - p * p / np.where(n > 0.0, n, 1.0), 0.0)
+    return n, nth_z, nth_h
 
 
 def _compile_bed():
@@ -493,6 +519,9 @@ def run_bed(setup, progress=None) -> BedResult:
     prof_z = np.arange(-1.0, 30.0 + 1e-9, 0.1) * s.diameter
     prof_sum = {k: np.zeros_like(prof_z) for k in PHASES}
     prof_n = dict.fromkeys(PHASES, 0)
+    th_sum = {k: [np.zeros_like(prof_z) for _ in range(2)] for k in PHASES}   # Σ nθ_z, Σ nθ_h
+    th_mean = np.empty(n_save + 1)
+    th = bed.th
     period = s.period
     phase_idx = {}
     for name, frac in PHASES.items():
@@ -504,11 +533,16 @@ def run_bed(setup, progress=None) -> BedResult:
         com[i] = float(np.mean(zc))
         top[i] = float(np.interp(0.99, cum_frac, zf))
         force[i] = bed.floor_force(ts[i])
+        th_mean[i] = float(np.mean(th))           # cells of equal mass: the mass mean
         if i in phase_idx:
             name = phase_idx[i]
             phi = mu / (s.density * np.diff(zf))
-            prof_sum[name] += coarse_grained_fraction(zf, phi, prof_z, 0.5 * s.diameter)
+            moments = coarse_grained_temperature(zf, phi, th, 0.5 * (bed.vf[1:] + bed.vf[:-1]), prof_z,
+                                                 0.5 * s.diameter)
+            prof_sum[name] += moments[0]
             prof_n[name] += 1
+            th_sum[name][0] += moments[1]
+            th_sum[name][1] += moments[2]
         if progress is not None:
             progress(ts[i])
 
@@ -518,7 +552,13 @@ def run_bed(setup, progress=None) -> BedResult:
         record(i)
     wall = time.perf_counter() - wall
     profiles = {k: (prof_z, prof_sum[k] / max(prof_n[k], 1)) for k in PHASES}
+    theta_profiles = {}
+    for k, (nz, nh) in th_sum.items():
+        nsum = prof_sum[k]
+        has = nsum > 0.0
+        safe = np.where(has, nsum, 1.0)
+        theta_profiles[k] = (prof_z, np.where(has, nz / safe, np.nan), np.where(has, nh / safe, np.nan))
     floor = s.amplitude * np.sin(s.omega * ts)
     return BedResult(ts, com, top, force, floor, profiles, int(bed.counters[0]), wall,
                      info={"n_cells": n, "layer_stiffness_N_m": s.layer_stiffness,
-                           "contact_wave_speed_m_s": bed.c})
+                           "contact_wave_speed_m_s": bed.c}, theta_mean=th_mean, theta_profiles=theta_profiles)
