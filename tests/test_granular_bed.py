@@ -148,6 +148,13 @@ def test_compare_bed_command_writes_the_schema(tmp_path, capsys):
     assert min(temp["continuum_theta_m2_s2"]) > 0 and min(temp["dem_theta_m2_s2"]) > 0
     assert temp["cycle_mean_ratio"] == pytest.approx(np.mean(temp["continuum_theta_m2_s2"])
                                                      / np.mean(temp["dem_theta_m2_s2"]))
+    assert min(temp["continuum_internal_energy_J"]) > 0 and min(temp["dem_internal_energy_J"]) > 0
+    fly = temp["dem_loss_over_enskog_cs_in_flight"]          # from the committed reference only
+    assert case["dem_takeoff_phase"] < fly["phases"][0] < fly["phases"][1] < case["dem_landing_phase"]
+    assert fly["min"] <= fly["median"] <= fly["max"]
+    start = temp["start"]
+    assert start["internal_energy_at_T_over_20_J"]["continuum"] > 0
+    assert 0.0 < start["first_landing_cycles"]["dem"] < 2.0 and start["first_landing_cycles"]["continuum"] > 0
     assert "| 3 |" in capsys.readouterr().out
 
 
@@ -454,6 +461,12 @@ def test_reference_temperature_post_processing_recovers_the_velocity_variance(tm
     np.testing.assert_allclose(t["theta_z_m2_s2"], 0.01, rtol=0.05)
     np.testing.assert_allclose(t["theta_h_m2_s2"], 0.004, rtol=0.03)
     np.testing.assert_allclose(t["theta_m2_s2"], (t["theta_z_m2_s2"] + 2 * t["theta_h_m2_s2"]) / 3, rtol=1e-4)
+    # the internal energy: the mean-flow gradient's share (20 /s over 10 d) plus the fluctuations
+    mean_flow = 0.5 * mod.MASS * n * 20.0 ** 2 * (10 * mod.D) ** 2 / 12
+    np.testing.assert_allclose(t["E_internal_J"], 0.5 * mod.MASS * n * (0.01 + 2 * 0.004) + mean_flow, rtol=0.03)
+    e_series = np.genfromtxt(tmp_path / "internal_energy.csv", delimiter=",", names=True, skip_header=1)
+    assert len(e_series) == len(frames)
+    assert np.all(t["enskog_cs_loss_W"] > 0)
     p = np.genfromtxt(tmp_path / "temperature_profiles.csv", delimiter=",", names=True, skip_header=1)
     inside = (p["z_rel_over_d"] > 2) & (p["z_rel_over_d"] < 8)
     np.testing.assert_allclose(p["theta_z_phase0"][inside], 0.01 + 20.0 ** 2 * (mod.D / 2) ** 2, rtol=0.1)
@@ -464,3 +477,4 @@ def test_reference_temperature_post_processing_recovers_the_velocity_variance(tm
     mod.write_temperature(tmp_path, frames, meta, zg)
     t = np.genfromtxt(tmp_path / "temperature.csv", delimiter=",", names=True, skip_header=1)
     assert np.all(np.abs(t["theta_m2_s2"]) < 1e-12)
+    assert np.all(np.abs(t["E_internal_J"]) < 1e-15) and np.all(np.abs(t["loss_W"]) < 1e-12)

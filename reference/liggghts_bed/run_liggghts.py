@@ -531,10 +531,20 @@ def cg_temperature(z: np.ndarray, v: np.ndarray, zg: np.ndarray, w: float = D / 
 
 
 def write_temperature(out: Path, frames, meta: dict, zg: np.ndarray) -> None:
-    """temperature.csv (the bed's mean granular temperature against the phase of the cycle)
-    and temperature_profiles.csv (theta against height at the four floor phases), from dump
-    frames with vx, vy, vz; mean over the measured cycles."""
+    """temperature.csv (the bed's mean granular temperature and its internal energy budget
+    against the phase of the cycle, mean over the measured cycles), temperature_profiles.csv
+    (theta against height at the four floor phases, the same mean) and internal_energy.csv
+    (E_int of every frame), from dump frames with vx, vy, vz.
+
+    The budget: E_int = sum_i m |v_i - v_cm|^2 / 2 [J] (the kinetic energy in the mass-centre
+    frame: thermal plus the mean flow's relative motion), its loss rate -dE_int/dt [W] (central
+    differences between frames; in flight, where neither the floor nor gravity does work on
+    it, the energy dissipated in the contacts), and Enskog's collisional loss
+    12 (1 - e^2) g0 rho_s phi^2 theta^(3/2) / (d sqrt(pi)) with Carnahan-Starling's g0 integrated
+    over the frame's own coarse-grained phi(z), theta(z) = (theta_z + 2 theta_h)/3 and the
+    cross-section [W]: the continuum's loss closure evaluated on the DEM's state."""
     dt, amp = meta["dt_s"], meta["amplitude_m"]
+    e = meta.get("restitution", E_REST)
     n0 = meta["cycles_startup"]
     ncyc = n0 + meta["cycles_measured"]
     spc = SAMPLES_PER_CYCLE
@@ -542,7 +552,11 @@ def write_temperature(out: Path, frames, meta: dict, zg: np.ndarray) -> None:
     count = np.zeros(spc)
     acc = {q: [np.zeros_like(zg) for _ in range(3)] for q in range(4)}
     nq = np.zeros(4)
-    for (step, ids, x) in frames:
+    times = np.array([step * dt for (step, _, _) in frames])
+    energy = np.array([0.5 * MASS * float(((x[:, 3:6] - x[:, 3:6].mean(axis=0)) ** 2).sum()) for (_, _, x) in frames])
+    loss = -np.gradient(energy, times) if len(frames) > 1 else np.zeros(len(frames))
+    e_int, e_loss, e_enskog = np.zeros(spc), np.zeros(spc), np.zeros(spc)
+    for j, (step, ids, x) in enumerate(frames):
         tt = step * dt
         k = int(round(tt / (PERIOD / spc)))
         cyc, sub = divmod(k, spc)
@@ -553,6 +567,14 @@ def write_temperature(out: Path, frames, meta: dict, zg: np.ndarray) -> None:
         mean_z[sub] += pz.mean()
         mean_h[sub] += ph.mean()
         count[sub] += 1
+        phi = VOL * n / meta["lx_m"] ** 2
+        theta = np.where(n > 0, (nthz + 2.0 * nthh) / (3.0 * np.where(n > 0, n, 1.0)), 0.0)
+        pc = np.minimum(phi, 0.95)
+        g0 = (1.0 - 0.5 * pc) / (1.0 - pc) ** 3
+        gamma = 12.0 * (1.0 - e * e) * g0 * RHO * phi ** 2 * theta ** 1.5 / (D * math.sqrt(math.pi))
+        e_enskog[sub] += float(np.sum(gamma) * (zg[1] - zg[0])) * meta["lx_m"] ** 2
+        e_int[sub] += energy[j]
+        e_loss[sub] += loss[j]
         if sub % (spc // 4) == 0:
             q = sub // (spc // 4)
             for a, b in zip(acc[q], (n, nthz, nthh)):
@@ -562,11 +584,22 @@ def write_temperature(out: Path, frames, meta: dict, zg: np.ndarray) -> None:
         f.write("# the bed's mean granular temperature against the floor phase (fraction of a cycle, floor at"
                 " A sin(2 pi phase)), mean over the measured cycles: theta_z = <(v_z - U_z(z_i))^2>, theta_h ="
                 " <((v_x - U_x)^2 + (v_y - U_y)^2)/2> over the spheres, U the coarse-grained (Gaussian sigma = d/2)"
-                " mean velocity at the sphere's height; theta = (theta_z + 2 theta_h)/3 [m^2/s^2]\n")
-        f.write("phase_cycles,theta_z_m2_s2,theta_h_m2_s2,theta_m2_s2\n")
+                " mean velocity at the sphere's height; theta = (theta_z + 2 theta_h)/3 [m^2/s^2]; E_internal_J ="
+                " sum m |v - v_cm|^2 / 2, loss_W = -dE_internal/dt (the contacts' dissipation in flight),"
+                f" enskog_cs_loss_W = Enskog's loss (Carnahan-Starling g0, e = {e:g}) on the frame's coarse-grained"
+                " phi(z), theta(z) (write_temperature)\n")
+        f.write("phase_cycles,theta_z_m2_s2,theta_h_m2_s2,theta_m2_s2,E_internal_J,loss_W,enskog_cs_loss_W\n")
         for k in range(spc):
-            tz, th = mean_z[k] / max(count[k], 1), mean_h[k] / max(count[k], 1)
-            f.write(f"{k / spc:.4f},{tz:.5e},{th:.5e},{(tz + 2 * th) / 3:.5e}\n")
+            c = max(count[k], 1)
+            tz, th = mean_z[k] / c, mean_h[k] / c
+            f.write(f"{k / spc:.4f},{tz:.5e},{th:.5e},{(tz + 2 * th) / 3:.5e},{e_int[k] / c:.5e},{e_loss[k] / c:.5e},"
+                    f"{e_enskog[k] / c:.5e}\n")
+    with open(out / "internal_energy.csv", "w") as f:
+        f.write("# every frame (1/(40 f)) from the start of the vibration: E_internal_J = sum m |v - v_cm|^2 / 2 (the"
+                " kinetic energy in the mass-centre frame, write_temperature)\n")
+        f.write("t_s,E_internal_J\n")
+        for tt, en in zip(times, energy):
+            f.write(f"{tt:.6f},{en:.5e}\n")
     with open(out / "temperature_profiles.csv", "w") as f:
         f.write("# granular temperature against the height above the floor at floor phase omega t = 0, pi/2, pi,"
                 " 3pi/2, mean over the measured cycles: theta_a(z) = sum n theta_a / sum n over the frames (n,"

@@ -51,6 +51,8 @@ STARTUP_CYCLES = 3
 FRICTION = 0.5
 """The Coulomb coefficient of the reference's frictional runs."""
 LONG_CYCLES = 30
+IN_FLIGHT_MARGIN = 0.05
+"""Phases [cycles] kept away from the reference's mean take-off and landing in the in-flight loss ratio."""
 LONG_FRICTION_GAMMAS = (3.0, 3.5, 3.75, 4.0, 4.5)
 """The continuum's frictional runs of :data:`LONG_CYCLES` cycles for its period-doubling Γ."""
 
@@ -188,32 +190,65 @@ def _compare_one(setup: BedSetup, ref: Path, tag: str, progress=None):
             **_dem_phases(ref, s, tag),
             "dem_wall_time_s": float(summ["wall_time_s"]),
         })
-        temp = _temperature_against_phase(res, ref, s, tag)
+        temp = _temperature_against_phase(res, flights, ref, s, tag)
         if temp is not None:
             case["temperature"] = temp
     return case, res, traj
 
 
-def _temperature_against_phase(res, ref: Path, s: BedSetup, tag: str):
-    """The bed's mass-mean granular temperature against the floor phase, continuum beside the
-    reference's temperature.csv (when that run has one), each averaged over the measured cycles
-    (3 to the end); None without the file.  The continuum's θ is isotropic; the reference's θ is
-    (θ_z + 2θ_h)/3, its components given too.  [m²/s²]"""
-    path = ref / "results" / f"gamma_{s.gamma:.2f}_N2000_L13d{tag}" / "temperature.csv"
+def _temperature_against_phase(res, flights, ref: Path, s: BedSetup, tag: str):
+    """The bed's mass-mean granular temperature and internal energy against the floor phase,
+    continuum beside the reference's temperature.csv (when that run has one), each averaged over
+    the measured cycles (3 to the end); None without the file.  The continuum's θ is isotropic;
+    the reference's θ is (θ_z + 2θ_h)/3, its components given too [m²/s²].  Also the start: the
+    internal energy T/20 after the floor's start [J] and the first landing [cycles], both beds
+    (``flights``: the continuum's)."""
+    folder = ref / "results" / f"gamma_{s.gamma:.2f}_N2000_L13d{tag}"
+    path = folder / "temperature.csv"
     if not path.exists():
         return None
     dem = _read_csv(path)
     phase = np.asarray(dem["phase_cycles"], dtype=float)
     times = (np.arange(STARTUP_CYCLES, s.cycles)[:, None] + phase[None, :]) * s.period
     cont = np.interp(times, res.t, res.theta_mean).mean(axis=0)
+    energy = np.interp(times, res.t, res.internal_energy).mean(axis=0)
     dth = np.asarray(dem["theta_m2_s2"], dtype=float)
-    return {"phase": phase.tolist(), "continuum_theta_m2_s2": cont.tolist(), "dem_theta_m2_s2": dth.tolist(),
-            "dem_theta_z_m2_s2": np.asarray(dem["theta_z_m2_s2"], dtype=float).tolist(),
-            "dem_theta_h_m2_s2": np.asarray(dem["theta_h_m2_s2"], dtype=float).tolist(),
-            "cycle_mean_ratio": float(cont.mean() / dth.mean()),
-            "note": "the bed's mass-mean theta against the floor phase (floor at A sin(2 pi phase)), mean over "
-                    "cycles 3-10; LIGGGHTS: (theta_z + 2 theta_h)/3 of the spheres' fluctuations about the "
-                    "coarse-grained (sigma = d/2) mean velocity; continuum: the cells' mean theta"}
+    col = {k: np.asarray(dem[k], dtype=float) for k in ("E_internal_J", "loss_W", "enskog_cs_loss_W")}
+    out = {"phase": phase.tolist(), "continuum_theta_m2_s2": cont.tolist(), "dem_theta_m2_s2": dth.tolist(),
+           "dem_theta_z_m2_s2": np.asarray(dem["theta_z_m2_s2"], dtype=float).tolist(),
+           "dem_theta_h_m2_s2": np.asarray(dem["theta_h_m2_s2"], dtype=float).tolist(),
+           "cycle_mean_ratio": float(cont.mean() / dth.mean()),
+           "continuum_internal_energy_J": energy.tolist(), "dem_internal_energy_J": col["E_internal_J"].tolist(),
+           "dem_loss_W": col["loss_W"].tolist(), "dem_enskog_cs_loss_W": col["enskog_cs_loss_W"].tolist(),
+           "note": "the bed's mass-mean theta against the floor phase (floor at A sin(2 pi phase)), mean over "
+                   "cycles 3-10; LIGGGHTS: (theta_z + 2 theta_h)/3 of the spheres' fluctuations about the "
+                   "coarse-grained (sigma = d/2) mean velocity; continuum: the cells' mean theta. Internal energy: "
+                   "the kinetic energy in the mass-centre frame (thermal + relative mean flow); dem_loss_W = its "
+                   "-dE/dt, dem_enskog_cs_loss_W = the continuum's loss closure on LIGGGHTS's coarse-grained state"}
+    takeoff, landing = (_dem_phases(ref, s, tag).get(k) for k in ("dem_takeoff_phase", "dem_landing_phase"))
+    if takeoff is not None and landing is not None:
+        # in flight, away from take-off and landing by 0.05 of a cycle: nothing but the contacts change E_int
+        ph = phase + (phase < takeoff)
+        fly = (ph > takeoff + IN_FLIGHT_MARGIN) & (ph < landing - IN_FLIGHT_MARGIN)
+        if fly.any():
+            ratio = col["loss_W"][fly] / col["enskog_cs_loss_W"][fly]
+            out["dem_loss_over_enskog_cs_in_flight"] = {"phases": [float(phase[fly][0]), float(phase[fly][-1])],
+                                                        "median": float(np.median(ratio)),
+                                                        "min": float(ratio.min()), "max": float(ratio.max())}
+    series = folder / "internal_energy.csv"
+    dem_flights = folder / "flights.csv"
+    if series.exists() and dem_flights.exists() and flights:
+        e_dem = _read_csv(series)
+        t_kick = s.period / 20.0
+        out["start"] = {
+            "internal_energy_at_T_over_20_J": {
+                "continuum": float(np.interp(t_kick, res.t, res.internal_energy)),
+                "dem": float(np.interp(t_kick, e_dem["t_s"], e_dem["E_internal_J"]))},
+            "first_landing_cycles": {"continuum": float(flights[0][1] / s.period),
+                                     "dem": float(np.atleast_1d(_read_csv(dem_flights)["t_landing_s"])[0] / s.period)},
+            "note": "the floor starts at t = 0 with the velocity a omega (a jump): the internal energy it leaves "
+                    "in the bed, and the end of the first flight"}
+    return out
 
 
 def _dem_phases(ref: Path, s: BedSetup, tag: str) -> dict:
@@ -479,6 +514,45 @@ def _figures(out, runs, base, folder, ref=REFERENCE):
         if g3 is not None and "temperature" in g3:
             _temperature_figure(g3["temperature"], res, Path(ref) / "results" / "gamma_3.00_N2000_L13d",
                                 base, folder, plt)
+            _energy_figure(g3, res, Path(ref) / "results" / "gamma_3.00_N2000_L13d", base, folder, plt)
+
+
+def _energy_figure(case, res, dem_dir: Path, base, folder, plt):
+    """bed_energy_gamma3.png: the internal energy over the run and against the phase, both beds,
+    and LIGGGHTS's loss beside Enskog's loss on its own state."""
+    temp = case["temperature"]
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4))
+    ax = axes[0]
+    ax.plot(res.t / base.period, 1e3 * res.internal_energy, "-", label="continuum")
+    path = dem_dir / "internal_energy.csv"
+    if path.exists():
+        e = _read_csv(path)
+        ax.plot(e["t_s"] / base.period, 1e3 * e["E_internal_J"], "k--", label="LIGGGHTS")
+    ax.set_xlabel("t [cycles] (floor vibrating from t = 0)")
+    ax.set_ylabel("internal kinetic energy [mJ]")
+    ax.set_title("in the mass-centre frame: thermal + relative mean flow")
+    ax.legend(fontsize=8)
+    ph = np.asarray(temp["phase"])
+    ax = axes[1]
+    ax.plot(ph, 1e3 * np.asarray(temp["continuum_internal_energy_J"]), "-", label="continuum")
+    ax.plot(ph, 1e3 * np.asarray(temp["dem_internal_energy_J"]), "k--", label="LIGGGHTS")
+    ax.set_xlabel("floor phase [cycles]")
+    ax.set_ylabel("internal energy [mJ], cycles 3–10")
+    ax.legend(fontsize=8)
+    ax = axes[2]
+    ax.plot(ph, temp["dem_loss_W"], "k--", label="LIGGGHTS −dE/dt")
+    ax.plot(ph, temp["dem_enskog_cs_loss_W"], "-", color="C1", label="Enskog's loss (CS g0) on LIGGGHTS's φ, θ")
+    fl = temp.get("dem_loss_over_enskog_cs_in_flight")
+    if fl:
+        ax.axvspan(*fl["phases"], color="0.9", label=f"in flight: ratio median {fl['median']:.2f}")
+    ax.set_ylim(bottom=min(0.0, ax.get_ylim()[0]))
+    ax.set_xlabel("floor phase [cycles]")
+    ax.set_ylabel("rate of loss [W]")
+    ax.legend(fontsize=7)
+    fig.suptitle("Γ = 3, e = 0.9, frictionless: the bed's internal energy")
+    fig.tight_layout()
+    fig.savefig(folder / "bed_energy_gamma3.png", dpi=120)
+    plt.close(fig)
 
 
 def _temperature_figure(temp, res, dem_dir: Path, base, folder, plt):

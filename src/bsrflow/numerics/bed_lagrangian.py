@@ -272,7 +272,9 @@ class BedResult:
     phases and cycles as ``profiles``): θ_h = Σ CG(φθ) / Σ CG(φ), θ_z = Σ [CG(φ(θ + u²)) −
     CG(φu)²/CG(φ)] / Σ CG(φ) over the frames (u the cells' mean velocity; the velocity's variation
     inside a cell left out), so that the continuum's isotropic θ meets the reference's vertical
-    and horizontal fluctuations through the same coarse graining."""
+    and horizontal fluctuations through the same coarse graining; internal_energy [J] at every
+    save: Σ m_j [(3/2)θ_j + (u_j − ū)²/2] over the cells (thermal plus the mean flow relative to
+    the mass centre, the reference's E_int = Σ m|v − v_cm|²/2)."""
 
     t: np.ndarray
     mass_centre: np.ndarray
@@ -286,6 +288,7 @@ class BedResult:
     info: dict = field(default_factory=dict)
     theta_mean: np.ndarray = None
     theta_profiles: dict = field(default_factory=dict)
+    internal_energy: np.ndarray = None
 
 
 PHASES = {"phase0": 0.0, "phase_pi2": 0.25, "phase_pi": 0.5, "phase_3pi2": 0.75}
@@ -521,7 +524,9 @@ def run_bed(setup, progress=None) -> BedResult:
     prof_n = dict.fromkeys(PHASES, 0)
     th_sum = {k: [np.zeros_like(prof_z) for _ in range(2)] for k in PHASES}   # Σ nθ_z, Σ nθ_h
     th_mean = np.empty(n_save + 1)
+    e_int = np.empty(n_save + 1)
     th = bed.th
+    m_cell = mu * s.area
     period = s.period
     phase_idx = {}
     for name, frac in PHASES.items():
@@ -534,11 +539,12 @@ def run_bed(setup, progress=None) -> BedResult:
         top[i] = float(np.interp(0.99, cum_frac, zf))
         force[i] = bed.floor_force(ts[i])
         th_mean[i] = float(np.mean(th))           # cells of equal mass: the mass mean
+        vc = 0.5 * (bed.vf[1:] + bed.vf[:-1])
+        e_int[i] = m_cell * float(np.sum(1.5 * th + 0.5 * (vc - np.mean(vc)) ** 2))
         if i in phase_idx:
             name = phase_idx[i]
             phi = mu / (s.density * np.diff(zf))
-            moments = coarse_grained_temperature(zf, phi, th, 0.5 * (bed.vf[1:] + bed.vf[:-1]), prof_z,
-                                                 0.5 * s.diameter)
+            moments = coarse_grained_temperature(zf, phi, th, vc, prof_z, 0.5 * s.diameter)
             prof_sum[name] += moments[0]
             prof_n[name] += 1
             th_sum[name][0] += moments[1]
@@ -561,4 +567,5 @@ def run_bed(setup, progress=None) -> BedResult:
     floor = s.amplitude * np.sin(s.omega * ts)
     return BedResult(ts, com, top, force, floor, profiles, int(bed.counters[0]), wall,
                      info={"n_cells": n, "layer_stiffness_N_m": s.layer_stiffness,
-                           "contact_wave_speed_m_s": bed.c}, theta_mean=th_mean, theta_profiles=theta_profiles)
+                           "contact_wave_speed_m_s": bed.c}, theta_mean=th_mean, theta_profiles=theta_profiles,
+                     internal_energy=e_int)
