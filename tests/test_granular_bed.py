@@ -159,6 +159,7 @@ def test_compare_bed_command_writes_the_schema(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("argv, text", [(["--gammas", "3.3"], "--gammas 3.3"), (["--cells", "2"], "--cells 2"),
+                                        (["--workers", "0"], "--workers 0 is outside the valid range [1, "),
                                         (["--cells", "5000"], "--cells 5000"), (["--gammas", "3", "3"], "twice"),
                                         (["--reference", "/nonexistent"], "--reference"),
                                         (["--reference", "EMPTY_PARAMS"], "--reference")])
@@ -366,12 +367,12 @@ def test_a_bed_passing_the_output_grid_stops_and_keeps_its_snapshots(tmp_path, c
 
 
 def test_long_friction_run_reports_its_flights_and_doubling():
-    from bsrflow.analysis.compare_bed import _long_friction_run
-    lines = []
-    r = _long_friction_run(BedSetup(gamma=4.0, friction=0.5, cycles=6, n_cells=30), lines.append)
+    from bsrflow.analysis.compare_bed import _long_friction_run, _long_run_line
+    r = _long_friction_run(BedSetup(gamma=4.0, friction=0.5, cycles=6, n_cells=30))
     assert r["friction"] == 0.5 and r["cycles"] == 6 and len(r["flight_time_per_cycle_s"]) == 6
     assert 0.02 < r["flight_time_s"] < 0.06 and isinstance(r["period_doubled"], bool)
-    assert len(lines) == 1 and "μ = 0.5" in lines[0]
+    line = _long_run_line(r)
+    assert "μ = 0.5" in line and "6 cycles" in line and ("doubled" in line or "single" in line)
 
 
 def test_bifurcation_figure_reads_the_reference_flights(tmp_path):
@@ -478,3 +479,46 @@ def test_reference_temperature_post_processing_recovers_the_velocity_variance(tm
     t = np.genfromtxt(tmp_path / "temperature.csv", delimiter=",", names=True, skip_header=1)
     assert np.all(np.abs(t["theta_m2_s2"]) < 1e-12)
     assert np.all(np.abs(t["E_internal_J"]) < 1e-15) and np.all(np.abs(t["loss_W"]) < 1e-12)
+
+
+def test_compare_bed_in_workers_gives_the_serial_numbers(tmp_path):
+    """--workers 2: every number of the JSON but the wall times equals the serial run's."""
+    def strip(x):
+        if isinstance(x, dict):
+            return {k: strip(v) for k, v in x.items() if k not in ("wall_time_s", "cost_s")}
+        return [strip(v) for v in x] if isinstance(x, list) else x
+    out = {}
+    for n in (1, 2):
+        out[n] = tmp_path / f"bed{n}.json"
+        assert main(["compare-bed", "--gammas", "2", "3", "--no-extra", "--cells", "24", "--workers", str(n),
+                     "--json", str(out[n])]) == 0
+    a, b = (json.loads(out[n].read_text()) for n in (1, 2))
+    assert len(a["cases"]) == 2 and strip(a) == strip(b)
+    assert a["cost_s"]["workers"] == 1 and b["cost_s"]["workers"] == 2
+
+
+def test_compare_bed_in_workers_ends_on_sigterm_with_one_line(tmp_path):
+    """SIGTERM while the workers run: one line, exit 143, the finished runs kept in --json's file
+    (none or some), and no worker process left."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    out = tmp_path / "bed.json"
+    cmd = [sys.executable, "-m", "bsrflow", "compare-bed", "--gammas", "2", "3", "4.5", "--no-extra", "--workers",
+           "2", "--json", str(out)]
+    p = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    first = p.stdout.readline()
+    assert first.startswith("bsrflow compare-bed: 3 Γ"), first
+    time.sleep(3.0)
+    os.kill(p.pid, signal.SIGTERM)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 143, (p.returncode, err)
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "interrupted by SIGTERM" in lines[0], err
+    assert out.exists() and json.loads(out.read_text())["interrupted"]
+    time.sleep(1.0)
+    ps = subprocess.run(["ps", "-o", "pid=,stat=,args=", "-s", str(p.pid)], capture_output=True, text=True)
+    left = [line for line in ps.stdout.splitlines() if line.split()[1][0] != "Z"]
+    assert left == [], left

@@ -272,19 +272,34 @@ def _continuum_flights(s: BedSetup, progress=None):
     return res, flights, tau, last_complete_flights(tau)
 
 
-def _long_friction_run(setup: BedSetup, log=None) -> dict:
+def _long_friction_run(setup: BedSetup) -> dict:
     """The continuum's flights over ``setup.cycles`` cycles and whether its last six are doubled."""
     s = setup
     res, _, tau, last6 = _continuum_flights(s)
     m = period_doubling_measure(last6)
-    run = {"gamma": s.gamma, "friction": s.friction, "cycles": s.cycles, "flight_time_s": float(np.mean(last6)),
-           "flight_time_per_cycle_s": tau.tolist(), "even_odd_split": m["even_odd_split"],
-           "period_doubled": m["period_doubled"], "wall_time_s": res.wall_time}
-    if log:
-        log(f"  Γ = {s.gamma:g}, μ = {s.friction:g}, {s.cycles} cycles: last six flights "
-            f"{' '.join(f'{1e3 * x:.1f}' for x in last6)} ms, period {'doubled' if m['period_doubled'] else 'single'}, "
-            f"{res.wall_time:.1f} s")
-    return run
+    return {"gamma": s.gamma, "friction": s.friction, "cycles": s.cycles, "flight_time_s": float(np.mean(last6)),
+            "flight_time_per_cycle_s": tau.tolist(), "even_odd_split": m["even_odd_split"],
+            "period_doubled": m["period_doubled"], "wall_time_s": res.wall_time}
+
+
+def _long_run_line(run: dict) -> str:
+    """The log line of a :func:`_long_friction_run`."""
+    last6 = last_complete_flights(run["flight_time_per_cycle_s"])
+    return (f"  Γ = {run['gamma']:g}, μ = {run['friction']:g}, {run['cycles']} cycles: last six flights "
+            f"{' '.join(f'{1e3 * x:.1f}' for x in last6)} ms, period "
+            f"{'doubled' if run['period_doubled'] else 'single'}, {run['wall_time_s']:.1f} s")
+
+
+def _bed_task(kind, setup, ref, tag, progress=None):
+    """One run of :func:`compare_bed` (here or in a worker process): ("ok", case, res, traj) for a
+    comparison with the reference run ``tag``, ("ok", run) for a long friction run, or ("stopped",
+    message) when the run stopped (a SimulationError does not survive pickling)."""
+    try:
+        if kind == "long":
+            return ("ok", _long_friction_run(setup))
+        return ("ok",) + _compare_one(setup, ref, tag, progress)
+    except SimulationError as exc:
+        return ("stopped", str(exc))
 
 
 def reference_bed(ref: Path, n_cells=200):
@@ -308,44 +323,64 @@ MODEL = ("packing stress + granular temperature (bsrflow.physics.granular_bed), 
 
 
 def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, progress=None, include_extra=True,
-                log=None):
+                log=None, workers=1):
     """Run the comparison (module docstring); returns the JSON-ready dict.  ``log(line)`` is called
-    after every run.  An interrupt (KeyboardInterrupt, also SIGTERM) or a stop (SimulationError)
-    carries the finished runs as ``exc.partial`` (the JSON's form without the summaries)."""
+    after every run.  ``workers`` > 1: the runs on that many processes (the same numbers, every
+    run being serial and deterministic; the wall times then those of a shared machine;
+    ``progress`` is not called from them).  An interrupt (KeyboardInterrupt, also SIGTERM) or a
+    stop (SimulationError) carries the finished runs as ``exc.partial`` (the JSON's form without
+    the summaries)."""
     ref = Path(reference)
     known, params, base = reference_bed(ref, n_cells)
     gammas = [float(g) for g in (known if gammas is None else gammas)]
     cases, runs, extra, long_runs = [], {}, [], []
+    # (kind, setup, reference tag, list it joins, what the reference run is)
+    tasks = [("case", base.with_(gamma=g), "", cases, None) for g in gammas]
+    if include_extra:
+        e05 = _read_csv(ref / "flight_vs_gamma_e0.5.csv")
+        tasks += [("case", base.with_(gamma=g, restitution=0.5), "_e0.5", extra,
+                   "LIGGGHTS Walton-Braun e = 0.5, frictionless") for g in [float(x) for x in e05["gamma"]]]
+        tasks += [("case", base.with_(gamma=3.0), tag, extra, what) for tag, what in (
+            ("_hooke_mu0.5", "LIGGGHTS spring-dashpot, friction 0.5; the continuum smooth"),
+            ("_hooke", "LIGGGHTS spring-dashpot, frictionless (the friction run's control)"))]
+        fric = _read_csv(ref / "flight_vs_gamma_hooke_mu0.5.csv")
+        tasks += [("case", base.with_(gamma=g, friction=FRICTION), "_hooke_mu0.5", extra,
+                   f"LIGGGHTS spring-dashpot, friction {FRICTION:g}; the continuum with friction {FRICTION:g}")
+                  for g in [float(x) for x in np.atleast_1d(fric["gamma"])]]
+        tasks += [("long", base.with_(gamma=g, friction=FRICTION, cycles=LONG_CYCLES), "", long_runs, None)
+                  for g in LONG_FRICTION_GAMMAS]
 
-    def one(setup, tag, into, dem=None):
-        case, res, traj = _compare_one(setup, ref, tag, progress)
+    def finish(task, got):
+        kind, setup, _, into, dem = task
+        if got[0] == "stopped":
+            raise SimulationError(got[1], None, None, None, "stopped")
+        if kind == "long":
+            into.append(got[1])
+            if log:
+                log(_long_run_line(got[1]))
+            return
+        _, case, res, traj = got
         if dem is not None:
             case["dem"] = dem
         into.append(case)
+        if into is cases:
+            runs[case["gamma"]] = (res, traj)
         if log:
             mu = f", μ = {case['friction']:g}" if case["friction"] else ""
             log(f"  Γ = {case['gamma']:g}, e = {case['restitution']:g}{mu}{' (' + dem + ')' if dem else ''}: flight "
                 f"{1e3 * case['flight_time_s']:.1f} ms (LIGGGHTS {1e3 * case.get('dem_flight_time_s', math.nan):.1f} ms), "
                 f"mass-centre RMS {case.get('mass_centre_rms_over_d', math.nan):.2f} d, {case['wall_time_s']:.1f} s")
-        return res, traj
 
     try:
-        for g in gammas:
-            runs[g] = one(base.with_(gamma=g), "", cases)
-        if include_extra:
-            e05 = _read_csv(ref / "flight_vs_gamma_e0.5.csv")
-            for g in [float(x) for x in e05["gamma"]]:
-                one(base.with_(gamma=g, restitution=0.5), "_e0.5", extra,
-                    "LIGGGHTS Walton-Braun e = 0.5, frictionless")
-            for tag, what in (("_hooke_mu0.5", "LIGGGHTS spring-dashpot, friction 0.5; the continuum smooth"),
-                              ("_hooke", "LIGGGHTS spring-dashpot, frictionless (the friction run's control)")):
-                one(base.with_(gamma=3.0), tag, extra, what)
-            fric = _read_csv(ref / "flight_vs_gamma_hooke_mu0.5.csv")
-            for g in [float(x) for x in np.atleast_1d(fric["gamma"])]:
-                one(base.with_(gamma=g, friction=FRICTION), "_hooke_mu0.5", extra,
-                    f"LIGGGHTS spring-dashpot, friction {FRICTION:g}; the continuum with friction {FRICTION:g}")
-            for g in LONG_FRICTION_GAMMAS:
-                long_runs.append(_long_friction_run(base.with_(gamma=g, friction=FRICTION, cycles=LONG_CYCLES), log))
+        if workers > 1:
+            from .worker_pool import worker_pool
+            with worker_pool(workers) as pool:
+                futures = [pool.apply_async(_bed_task, (kind, setup, ref, tag)) for kind, setup, tag, _, _ in tasks]
+                for task, fut in zip(tasks, futures):
+                    finish(task, fut.get())
+        else:
+            for task in tasks:
+                finish(task, _bed_task(task[0], task[1], ref, task[2], progress))
     except (KeyboardInterrupt, SimulationError) as exc:
         exc.partial = {"model": MODEL, "fitted_constants": {}, "n_cells": n_cells, "cases": cases,
                        "extra_cases": extra, f"friction_{LONG_CYCLES}_cycles_runs": long_runs}
@@ -388,8 +423,10 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
             "note": "the exploratory e = 0.5 runs (same bed, same K)"},
         "cost_s": {"continuum": g3["wall_time_s"] if g3 else None,
                    "dem": g3.get("dem_wall_time_s") if g3 else None,
-                   "note": "Gamma = 3, 11 cycles each; continuum measured in this run, LIGGGHTS from the committed "
-                           "summary of its serial run on this machine type (2026-12-01)"},
+                   "workers": workers,
+                   "note": "Gamma = 3, 11 cycles each; continuum measured in this run (with workers > 1 on a machine "
+                           "shared with the other runs; bench/bench_bed.py measures the cost alone), LIGGGHTS from the "
+                           "committed summary of its serial run on this machine type (2026-12-01)"},
     }
     if not include_extra:
         del out["period_doubling_gamma_friction_mu0.5"]
@@ -614,6 +651,9 @@ def add_parser(sub):
                    help="only these Γ of the main runs (default: every Γ of the LIGGGHTS runs, 1.5 to 8)")
     p.add_argument("--cells", type=int, default=200, metavar="N", help="Lagrangian cells over the bed (default 200)")
     p.add_argument("--no-extra", action="store_true", help="skip the e = 0.5 and friction comparisons")
+    p.add_argument("--workers", type=int, default=1, metavar="N",
+                   help="run the continuum's runs on N processes (default 1; at most 4 per CPU); the same numbers, "
+                        "the wall times then those of a shared machine")
     p.add_argument("--reference", default=os.fspath(REFERENCE), metavar="DIR",
                    help="the LIGGGHTS data folder (default: the repository's reference/liggghts_bed)")
     p.set_defaults(func=_main)
@@ -646,15 +686,20 @@ def _main(args) -> int:
         for g in args.gammas:
             if not any(abs(g - k) < 1e-9 for k in known):
                 raise ValueError(f"--gammas {g:g} is not one of the LIGGGHTS runs' Γ: {', '.join(f'{k:g}' for k in known)}")
+    max_workers = 4 * (os.cpu_count() or 1)
+    if not 1 <= args.workers <= max_workers:
+        raise ValueError(f"--workers {args.workers} is outside the valid range [1, {max_workers}] (4 per CPU of this "
+                         "machine)")
     if args.figures is not None:                     # created only once everything else is checked
         check_output_dir(args.figures, "--figures", create=True)
     t0 = time.perf_counter()
     n_main = len(args.gammas or known)
     print(f"bsrflow compare-bed: {n_main} Γ of the LIGGGHTS runs{'' if args.no_extra else ' and the e = 0.5 and friction runs'}, "
-          f"{args.cells} cells", flush=True)
+          f"{args.cells} cells{f', {args.workers} workers' if args.workers > 1 else ''}", flush=True)
     from .compare import _keeping_partial, _log
     with _keeping_partial(args.json, lambda p: f"{len(p['cases']) + len(p['extra_cases'])} finished run(s)"):
-        out = compare_bed(args.gammas, args.cells, ref, args.figures, include_extra=not args.no_extra, log=_log)
+        out = compare_bed(args.gammas, args.cells, ref, args.figures, include_extra=not args.no_extra, log=_log,
+                          workers=args.workers)
     print(format_table(out))
     pd, cost = out["period_doubling_gamma"], out["cost_s"]
 

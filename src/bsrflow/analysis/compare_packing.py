@@ -154,12 +154,6 @@ def _run_against_dem(name, s, dem, dem_m, dem_wall):
     return run, entry
 
 
-def _ignore_sigint():
-    """Initializer of the worker processes: Ctrl-C is the parent's to handle (it stops them)."""
-    import signal
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
 def _run_task(name, setup, dem, dem_m, dem_wall):
     """One (case, model) run in a worker process: ("ok", run, entry) or, when a monitor stops it,
     ("stopped", message, time, position) (a SimulationError does not survive pickling)."""
@@ -195,10 +189,9 @@ def _stopped(c, form, rng, message, models, out_cases):
 def _compare_in_workers(cases, base, models, auto_stiffness, workers, log, out_cases, fig_runs):
     """The runs of :func:`compare_packing` on ``workers`` processes (the DEM runs here, each case's
     models there); the same entries in the same order as the serial loop."""
-    import multiprocessing
-
     from ..physics.column import suggest_stiffness_factor
     from .compare import run_dem_column
+    from .worker_pool import worker_pool
     prepared = []
     for c in cases:
         s0 = case_setup(c, base)
@@ -208,25 +201,7 @@ def _compare_in_workers(cases, base, models, auto_stiffness, workers, log, out_c
             s0 = s0.with_(stiffness_factor=suggest_stiffness_factor(s0))
         dem_wall = time.perf_counter() - w
         prepared.append((c, s0, dem, _metrics(dem[0], dem[1][:, -1], dem[1].mean(axis=1), s0), dem_wall))
-    import signal
-    import threading
-    main_thread = threading.current_thread() is threading.main_thread()
-
-    def on_term(signum, frame):            # SIGTERM: stop the workers too, one line, exit 143
-        exc = KeyboardInterrupt("interrupted by SIGTERM")
-        exc.exit_code = 128 + int(signum)
-        raise exc
-    old_term = signal.signal(signal.SIGTERM, on_term) if main_thread else None
-    pool = None
-    try:
-        # the workers start with Ctrl-C blocked (the mask is kept across their exec), so that a
-        # Ctrl-C while they import prints no traceback of theirs; one that reaches the parent
-        # meanwhile is delivered when it unblocks it, inside this try
-        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-        try:
-            pool = multiprocessing.get_context("spawn").Pool(workers, initializer=_ignore_sigint)
-        finally:
-            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    with worker_pool(workers) as pool:
         pending = [[pool.apply_async(_run_task, (c["name"], s0.with_(formulation=form, range_over_d=rng), dem,
                                                   dem_m, dem_wall)) for form, rng in models]
                    for c, s0, dem, dem_m, dem_wall in prepared]
@@ -241,13 +216,6 @@ def _compare_in_workers(cases, base, models, auto_stiffness, workers, log, out_c
                 out_cases.append(entry)
                 _log_entry(log, c, entry, dem_m, dem_wall)
             fig_runs[c["name"]] = (s0, runs, dem)
-        pool.close()
-    finally:
-        if main_thread:
-            signal.signal(signal.SIGTERM, old_term)
-        if pool is not None:
-            pool.terminate()                # a stop, Ctrl-C or SIGTERM ends the runs still going
-            pool.join()
 
 
 def _compare_serial(cases, base, models, auto_stiffness, log, out_cases, fig_runs):
