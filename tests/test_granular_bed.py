@@ -152,6 +152,9 @@ def test_compare_bed_command_writes_the_schema(tmp_path, capsys):
     fly = temp["dem_loss_over_enskog_cs_in_flight"]          # from the committed reference only
     assert case["dem_takeoff_phase"] < fly["phases"][0] < fly["phases"][1] < case["dem_landing_phase"]
     assert fly["min"] <= fly["median"] <= fly["max"]
+    budget = temp["energy_budget"]                            # LIGGGHTS's: closes on the committed data
+    assert budget["dem_dissipation_per_cycle_J"] == pytest.approx(budget["dem_floor_work_per_cycle_J"], rel=0.05)
+    assert len(budget["dem_dissipation_W"]) == n and budget["continuum_floor_work_per_cycle_J"] > 0
     start = temp["start"]
     assert start["internal_energy_at_T_over_20_J"]["continuum"] > 0
     assert 0.0 < start["first_landing_cycles"]["dem"] < 2.0 and start["first_landing_cycles"]["continuum"] > 0
@@ -522,3 +525,15 @@ def test_compare_bed_in_workers_ends_on_sigterm_with_one_line(tmp_path):
     ps = subprocess.run(["ps", "-o", "pid=,stat=,args=", "-s", str(p.pid)], capture_output=True, text=True)
     left = [line for line in ps.stdout.splitlines() if line.split()[1][0] != "Z"]
     assert left == [], left
+
+
+def test_phase_window_wraps_around_the_cycle():
+    """compare-bed's in-flight and on-floor phases: the open window (start + margin, end − margin)
+    taken modulo one cycle."""
+    from bsrflow.analysis.compare_bed import _phase_window
+    p = np.arange(40) / 40
+    fly = p[_phase_window(p, 0.19, 0.734, 0.05)]
+    assert fly[0] == 0.25 and fly[-1] == 0.675 and len(fly) == 18
+    floor = p[_phase_window(p, 0.734, 1.19, 0.05)]
+    assert set(floor) == set(p[(p > 0.784) | (p < 0.14)])
+    assert not np.any(_phase_window(p, 0.19, 0.734, 0.05) & _phase_window(p, 0.734, 1.19, 0.05))

@@ -228,8 +228,7 @@ def _temperature_against_phase(res, flights, ref: Path, s: BedSetup, tag: str):
     takeoff, landing = (_dem_phases(ref, s, tag).get(k) for k in ("dem_takeoff_phase", "dem_landing_phase"))
     if takeoff is not None and landing is not None:
         # in flight, away from take-off and landing by 0.05 of a cycle: nothing but the contacts change E_int
-        ph = phase + (phase < takeoff)
-        fly = (ph > takeoff + IN_FLIGHT_MARGIN) & (ph < landing - IN_FLIGHT_MARGIN)
+        fly = _phase_window(phase, takeoff, landing, IN_FLIGHT_MARGIN)
         if fly.any():
             ratio = col["loss_W"][fly] / col["enskog_cs_loss_W"][fly]
             out["dem_loss_over_enskog_cs_in_flight"] = {"phases": [float(phase[fly][0]), float(phase[fly][-1])],
@@ -248,7 +247,71 @@ def _temperature_against_phase(res, flights, ref: Path, s: BedSetup, tag: str):
                                      "dem": float(np.atleast_1d(_read_csv(dem_flights)["t_landing_s"])[0] / s.period)},
             "note": "the floor starts at t = 0 with the velocity a omega (a jump): the internal energy it leaves "
                     "in the bed, and the end of the first flight"}
+        budget = _dem_energy_budget(folder, s, e_dem)
+        if budget is not None:
+            ens = col["enskog_cs_loss_W"]
+            ens_mid = 0.5 * (ens + np.roll(ens, -1))
+            budget.update({
+                "dem_enskog_cs_loss_per_cycle_J": float(ens.mean() * s.period),
+                "continuum_floor_work_per_cycle_J": _floor_work_per_cycle(res.t, res.floor_force, s),
+                "dem_enskog_cs_loss_at_midpoints_W": ens_mid.tolist()})
+            if takeoff is not None and landing is not None:
+                # on the floor: from the landing to the next take-off, each by the margin inside
+                on = _phase_window(np.asarray(budget["phase_mid"]), landing, takeoff + 1.0, IN_FLIGHT_MARGIN)
+                ratio = np.asarray(budget["dem_dissipation_W"]) / ens_mid
+                if on.any():
+                    budget["dem_dissipation_over_enskog_cs_on_floor"] = {
+                        "median": float(np.median(ratio[on])), "min": float(ratio[on].min()),
+                        "max": float(ratio[on].max()), "phases": int(on.sum())}
+            out["energy_budget"] = budget
     return out
+
+
+def _phase_window(phase, start, end, margin):
+    """Which of the phases [cycles, 0 to 1] lie in (start + margin, end − margin) taken modulo one
+    cycle (start < end < start + 1: a flight from its take-off to its landing, or the time on the
+    floor from a landing to the next take-off)."""
+    return ((np.asarray(phase) - start - margin) % 1.0) < (end - start) - 2.0 * margin
+
+
+def _floor_work_per_cycle(t, force, s: BedSetup) -> float:
+    """∫ F v_floor dt [J] per cycle over cycles 3 to the end (trapezoids on the series), F [N] the
+    floor's force on the bed at the times t [s], v_floor = aω cos ωt."""
+    p = force * s.amplitude * s.omega * np.cos(s.omega * t)
+    m = t >= STARTUP_CYCLES * s.period - 1e-12
+    return float(np.trapezoid(p[m], t[m]) / (t[m][-1] - t[m][0]) * s.period)
+
+
+def _dem_energy_budget(folder: Path, s: BedSetup, e_int):
+    """The reference bed's dissipation rate from its energy budget, D = F v_floor −
+    d/dt(M v_cm²/2 + M g z_cm + E_int) (its floor_force.csv, trajectory.csv and internal_energy.csv;
+    the contacts' elastic energy left out), over each interval between frames, averaged per phase
+    over cycles 3 to the end: {"phase_mid", "dem_dissipation_W", "dem_dissipation_per_cycle_J",
+    "dem_floor_work_per_cycle_J"}, or None without the files."""
+    if not ((folder / "trajectory.csv").exists() and (folder / "floor_force.csv").exists()):
+        return None
+    tr, ff = _read_csv(folder / "trajectory.csv"), _read_csv(folder / "floor_force.csv")
+    t = np.asarray(tr["t_s"], dtype=float)
+    if len(t) != len(e_int["t_s"]) or not np.allclose(t, e_int["t_s"], atol=1e-6):
+        return None
+    m_bed = s.n_spheres * s.sphere_mass
+    energy = (0.5 * m_bed * tr["vz_com_m_s"] ** 2 + m_bed * s.gravity * tr["com_lab_m"]
+              + np.asarray(e_int["E_internal_J"], dtype=float))
+    tf = np.asarray(ff["t_s"], dtype=float)
+    power = ff["F_floor_N"] * s.amplitude * s.omega * np.cos(s.omega * tf)
+    work = np.interp(t, tf, np.concatenate([[0.0], np.cumsum(0.5 * (power[1:] + power[:-1]) * np.diff(tf))]))
+    rate = (np.diff(work) - np.diff(energy)) / np.diff(t)
+    mid = 0.5 * (t[1:] + t[:-1])
+    spc = int(round(s.period / (t[1] - t[0])))
+    k = np.floor((mid / s.period) % 1.0 * spc).astype(int) % spc
+    keep = mid >= STARTUP_CYCLES * s.period
+    per_phase = np.array([rate[keep & (k == j)].mean() for j in range(spc)])
+    return {"phase_mid": ((np.arange(spc) + 0.5) / spc).tolist(), "dem_dissipation_W": per_phase.tolist(),
+            "dem_dissipation_per_cycle_J": float(per_phase.mean() * s.period),
+            "dem_floor_work_per_cycle_J": _floor_work_per_cycle(tf, np.asarray(ff["F_floor_N"], dtype=float), s),
+            "note": "LIGGGHTS's dissipation from its energy budget (floor work minus the change of its mechanical "
+                    "energy, contacts' elastic energy left out) per phase interval, beside Enskog's loss (Carnahan-"
+                    "Starling g0) on its coarse-grained state at the same midpoints; per cycle, over cycles 3-10"}
 
 
 def _dem_phases(ref: Path, s: BedSetup, tag: str) -> dict:
@@ -577,8 +640,16 @@ def _energy_figure(case, res, dem_dir: Path, base, folder, plt):
     ax.set_ylabel("internal energy [mJ], cycles 3–10")
     ax.legend(fontsize=8)
     ax = axes[2]
-    ax.plot(ph, temp["dem_loss_W"], "k--", label="LIGGGHTS −dE/dt")
-    ax.plot(ph, temp["dem_enskog_cs_loss_W"], "-", color="C1", label="Enskog's loss (CS g0) on LIGGGHTS's φ, θ")
+    ax.plot(ph, temp["dem_loss_W"], "k:", label="LIGGGHTS −dE_int/dt")
+    budget = temp.get("energy_budget")
+    if budget:
+        ax.plot(budget["phase_mid"], budget["dem_dissipation_W"], "k--",
+                label=f"LIGGGHTS dissipation, energy budget ({1e3 * budget['dem_dissipation_per_cycle_J']:.1f} mJ/cycle)")
+        ax.plot(budget["phase_mid"], budget["dem_enskog_cs_loss_at_midpoints_W"], "-", color="C1",
+                label=f"Enskog's loss (CS g0) on LIGGGHTS's φ, θ ({1e3 * budget['dem_enskog_cs_loss_per_cycle_J']:.1f} "
+                      "mJ/cycle)")
+    else:
+        ax.plot(ph, temp["dem_enskog_cs_loss_W"], "-", color="C1", label="Enskog's loss (CS g0) on LIGGGHTS's φ, θ")
     fl = temp.get("dem_loss_over_enskog_cs_in_flight")
     if fl:
         ax.axvspan(*fl["phases"], color="0.9", label=f"in flight: ratio median {fl['median']:.2f}")
