@@ -537,3 +537,24 @@ def test_phase_window_wraps_around_the_cycle():
     floor = p[_phase_window(p, 0.734, 1.19, 0.05)]
     assert set(floor) == set(p[(p > 0.784) | (p < 0.14)])
     assert not np.any(_phase_window(p, 0.19, 0.734, 0.05) & _phase_window(p, 0.734, 1.19, 0.05))
+
+
+def test_cooling_reference_recovers_enskog_where_it_holds():
+    """reference/liggghts_cooling: the committed homogeneous-cooling runs' g0 is the Haff slope over
+    Enskog's slope per unit g0, and up to φ = 0.5 (where Enskog with Carnahan–Starling is known to
+    hold) it is Carnahan–Starling's within 10 %, by both routes; it grows beyond above."""
+    from pathlib import Path
+    from bsrflow.physics.granular_bed import g0_cs
+    summ = json.loads((Path(__file__).resolve().parents[1] / "reference" / "liggghts_cooling"
+                       / "summary.json").read_text())
+    runs = summ["runs"]
+    assert len(runs) >= 8 and all(r["atoms_final"] == summ["n"] for r in runs)
+    for r in runs:
+        per_g0 = 4.0 * (1.0 - summ["e"] ** 2) * r["phi"] / (summ["d_m"] * math.sqrt(math.pi))
+        assert r["g0_measured"] == pytest.approx(r["slope_theta_inv_sqrt_s_per_m"] / per_g0, rel=1e-12)
+        assert r["g0_carnahan_starling"] == pytest.approx(g0_cs(r["phi"]), rel=1e-12)
+        if r["phi"] <= 0.5:
+            assert 0.9 < r["ratio_to_carnahan_starling"] < 1.1
+            assert 0.9 < r["ratio_pressure_route_to_carnahan_starling"] < 1.1
+    dense = [r["ratio_to_carnahan_starling"] for r in runs if r["phi"] >= 0.55]
+    assert dense == sorted(dense) and dense[-1] > 2.0
