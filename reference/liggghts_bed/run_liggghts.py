@@ -505,6 +505,12 @@ def cg_profile(z: np.ndarray, zg: np.ndarray, lx: float, w: float = D / 2) -> np
     return VOL * np.exp(-0.5 * s * s).sum(axis=1) / (w * math.sqrt(2 * math.pi) * lx * lx)
 
 
+def cg_weights(z: np.ndarray, zg: np.ndarray, w: float = D / 2) -> np.ndarray:
+    """G[k, i] = the Gaussian of standard deviation w at zg[k] - z[i] [1/m]."""
+    s = (zg[:, None] - z[None, :]) / w
+    return np.exp(-0.5 * s * s) / (w * math.sqrt(2 * math.pi))
+
+
 def cg_temperature(z: np.ndarray, v: np.ndarray, zg: np.ndarray, w: float = D / 2):
     """Coarse-grained kinetic moments on the grid zg for one frame (same Gaussian as
     :func:`cg_profile`): returns (n, n*theta_z, n*theta_h, theta_z_i, theta_h_i) with
@@ -513,8 +519,7 @@ def cg_temperature(z: np.ndarray, v: np.ndarray, zg: np.ndarray, w: float = D / 
     component, theta_h = (theta_xx + theta_yy) / 2 (a mean-velocity gradient adds its variance
     across the kernel, w^2 (dU/dz)^2, to n theta_z / n); and per sphere the squared fluctuations
     (v_iz - U_z(z_i))^2 and ((v_ix - U_x)^2 + (v_iy - U_y)^2) / 2 with U interpolated at z_i."""
-    s = (zg[:, None] - z[None, :]) / w
-    g = np.exp(-0.5 * s * s) / (w * math.sqrt(2 * math.pi))
+    g = cg_weights(z, zg, w)
     n = g.sum(axis=1)
     safe = np.where(n > 0, n, 1.0)
     out, per = [], []
@@ -541,8 +546,10 @@ def write_temperature(out: Path, frames, meta: dict, zg: np.ndarray) -> None:
     differences between frames; in flight, where neither the floor nor gravity does work on
     it, the energy dissipated in the contacts), and Enskog's collisional loss
     12 (1 - e^2) g0 rho_s phi^2 theta^(3/2) / (d sqrt(pi)) with Carnahan-Starling's g0 integrated
-    over the frame's own coarse-grained phi(z), theta(z) = (theta_z + 2 theta_h)/3 and the
-    cross-section [W]: the continuum's loss closure evaluated on the DEM's state."""
+    over the frame's own coarse-grained phi(z) and theta(z) (the spheres' squared fluctuations
+    about U at their height, (theta_z,i + 2 theta_h,i)/3, coarse-grained: without the kernel's
+    share of a mean-velocity gradient) and the cross-section [W]: the continuum's loss closure
+    evaluated on the DEM's state."""
     dt, amp = meta["dt_s"], meta["amplitude_m"]
     e = meta.get("restitution", E_REST)
     n0 = meta["cycles_startup"]
@@ -568,7 +575,9 @@ def write_temperature(out: Path, frames, meta: dict, zg: np.ndarray) -> None:
         mean_h[sub] += ph.mean()
         count[sub] += 1
         phi = VOL * n / meta["lx_m"] ** 2
-        theta = np.where(n > 0, (nthz + 2.0 * nthh) / (3.0 * np.where(n > 0, n, 1.0)), 0.0)
+        # the local theta of Enskog's loss: the spheres' own fluctuations (about U at their height)
+        # coarse-grained, without the kernel's share of a mean-velocity gradient
+        theta = np.where(n > 0, cg_weights(zr, zg) @ ((pz + 2.0 * ph) / 3.0) / np.where(n > 0, n, 1.0), 0.0)
         pc = np.minimum(phi, 0.95)
         g0 = (1.0 - 0.5 * pc) / (1.0 - pc) ** 3
         gamma = 12.0 * (1.0 - e * e) * g0 * RHO * phi ** 2 * theta ** 1.5 / (D * math.sqrt(math.pi))

@@ -231,7 +231,9 @@ def _temperature_against_phase(res, flights, ref: Path, s: BedSetup, tag: str):
         fly = _phase_window(phase, takeoff, landing, IN_FLIGHT_MARGIN)
         if fly.any():
             ratio = col["loss_W"][fly] / col["enskog_cs_loss_W"][fly]
-            out["dem_loss_over_enskog_cs_in_flight"] = {"phases": [float(phase[fly][0]), float(phase[fly][-1])],
+            order = np.argsort((phase[fly] - takeoff) % 1.0)            # in time order, across phase 0
+            out["dem_loss_over_enskog_cs_in_flight"] = {"phases": [float(phase[fly][order[0]]),
+                                                                   float(phase[fly][order[-1]])],
                                                         "median": float(np.median(ratio)),
                                                         "min": float(ratio.min()), "max": float(ratio.max())}
     series = folder / "internal_energy.csv"
@@ -354,15 +356,20 @@ def _long_run_line(run: dict) -> str:
 
 
 def _bed_task(kind, setup, ref, tag, progress=None):
-    """One run of :func:`compare_bed` (here or in a worker process): ("ok", case, res, traj) for a
-    comparison with the reference run ``tag``, ("ok", run) for a long friction run, or ("stopped",
-    message) when the run stopped (a SimulationError does not survive pickling)."""
+    """One run of :func:`compare_bed`: ("ok", case, res, traj) for a comparison with the reference
+    run ``tag``, ("ok", run) for a long friction run; a stop raises SimulationError."""
+    if kind == "long":
+        return ("ok", _long_friction_run(setup))
+    return ("ok",) + _compare_one(setup, ref, tag, progress)
+
+
+def _bed_task_in_worker(kind, setup, ref, tag):
+    """:func:`_bed_task` in a worker process: a stop comes back as ("stopped", message, time,
+    position, status) (a SimulationError does not survive pickling)."""
     try:
-        if kind == "long":
-            return ("ok", _long_friction_run(setup))
-        return ("ok",) + _compare_one(setup, ref, tag, progress)
+        return _bed_task(kind, setup, ref, tag)
     except SimulationError as exc:
-        return ("stopped", str(exc))
+        return ("stopped", str(exc), exc.time, exc.position, exc.status)
 
 
 def reference_bed(ref: Path, n_cells=200):
@@ -416,7 +423,7 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
     def finish(task, got):
         kind, setup, _, into, dem = task
         if got[0] == "stopped":
-            raise SimulationError(got[1], None, None, None, "stopped")
+            raise SimulationError(got[1], None, *got[2:])
         if kind == "long":
             into.append(got[1])
             if log:
@@ -438,7 +445,8 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
         if workers > 1:
             from .worker_pool import worker_pool
             with worker_pool(workers) as pool:
-                futures = [pool.apply_async(_bed_task, (kind, setup, ref, tag)) for kind, setup, tag, _, _ in tasks]
+                futures = [pool.apply_async(_bed_task_in_worker, (kind, setup, ref, tag))
+                           for kind, setup, tag, _, _ in tasks]
                 for task, fut in zip(tasks, futures):
                     finish(task, fut.get())
         else:
@@ -652,7 +660,11 @@ def _energy_figure(case, res, dem_dir: Path, base, folder, plt):
         ax.plot(ph, temp["dem_enskog_cs_loss_W"], "-", color="C1", label="Enskog's loss (CS g0) on LIGGGHTS's φ, θ")
     fl = temp.get("dem_loss_over_enskog_cs_in_flight")
     if fl:
-        ax.axvspan(*fl["phases"], color="0.9", label=f"in flight: ratio median {fl['median']:.2f}")
+        a, b = fl["phases"]
+        label = f"in flight: ratio median {fl['median']:.2f}"
+        for lo, hi in ([(a, b)] if a <= b else [(a, 1.0), (0.0, b)]):     # a window across phase 0: two spans
+            ax.axvspan(lo, hi, color="0.9", label=label)
+            label = None
     ax.set_ylim(bottom=min(0.0, ax.get_ylim()[0]))
     ax.set_xlabel("floor phase [cycles]")
     ax.set_ylabel("rate of loss [W]")

@@ -32,14 +32,16 @@ def worker_pool(workers: int):
     old_term = signal.signal(signal.SIGTERM, on_term) if main_thread else None
     pool = None
     try:
-        # the workers start with Ctrl-C blocked (the mask is kept across their exec), so that a
-        # Ctrl-C while they import prints no traceback of theirs; one that reaches the parent
-        # meanwhile is delivered when it unblocks it, inside this try
-        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        # the workers start with Ctrl-C ignored: an ignored signal stays ignored across their exec
+        # and Python leaves it so, so that a Ctrl-C while they import prints no traceback of theirs
+        # (a blocked mask is not kept across the spawn); the parent ignores it only while it
+        # starts them, a few milliseconds
+        old_int = signal.signal(signal.SIGINT, signal.SIG_IGN) if main_thread else None
         try:
             pool = multiprocessing.get_context("spawn").Pool(workers, initializer=_ignore_sigint)
         finally:
-            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+            if main_thread:
+                signal.signal(signal.SIGINT, old_int)
         yield pool
         pool.close()
     finally:
