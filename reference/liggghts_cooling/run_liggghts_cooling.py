@@ -75,6 +75,17 @@ processors      1 1 1
 """
 
 
+def deck_start(data: str, contact: str, dt: float) -> str:
+    """The deck up to the integrator: the box and spheres of ``data``, the contact law, the step."""
+    return header() + f"""read_data       {data}
+neighbor        {0.1 * bed.D:.6g} bin
+neigh_modify    delay 0
+{contact}
+timestep        {dt:.12g}
+fix integr all nve/sphere
+"""
+
+
 def gaussian(n, theta, rng):
     v = rng.normal(0.0, math.sqrt(theta), (n, 3))
     return v - v.mean(axis=0)
@@ -96,13 +107,7 @@ def run_phi(phi: float, work: Path) -> dict:
     bed.E_REST = e_save
     contact = bed.deck_contact("walton_braun", 0.0)
     n_comp = int(round(COMPRESS_S / dt))
-    deck = header() + f"""read_data       start.data
-neighbor        {0.1 * bed.D:.6g} bin
-neigh_modify    delay 0
-{contact_elastic}
-timestep        {dt:.12g}
-fix integr all nve/sphere
-fix squeeze all deform 1 x final 0 {l_end:.12g} y final 0 {l_end:.12g} z final 0 {l_end:.12g} remap x
+    deck = deck_start("start.data", contact_elastic, dt) + f"""fix squeeze all deform 1 x final 0 {l_end:.12g} y final 0 {l_end:.12g} z final 0 {l_end:.12g} remap x
 thermo_style    custom step atoms ke
 thermo          {max(1, n_comp // 10)}
 thermo_modify   norm no
@@ -115,13 +120,7 @@ write_dump all custom compressed.dump id x y z vx vy vz modify sort id
     _, ids, x = bed.read_dump(wd / "compressed.dump")[-1]
     write_data(wd / "cool.data", x[:, :3] % l_end, gaussian(N, THETA0, rng), l_end)
     n_cool = int(round(COOL_S / dt))
-    deck = header() + f"""read_data       cool.data
-neighbor        {0.1 * bed.D:.6g} bin
-neigh_modify    delay 0
-{contact}
-timestep        {dt:.12g}
-fix integr all nve/sphere
-compute k all ke
+    deck = deck_start("cool.data", contact, dt) + f"""compute k all ke
 compute sa all stress/atom pair
 compute ps all reduce sum c_sa[1] c_sa[2] c_sa[3]
 variable st equal step

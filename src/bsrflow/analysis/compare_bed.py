@@ -548,10 +548,8 @@ def _bifurcation_figure(out, ref, folder, plt):
     ax.set_title(f"friction μ = {FRICTION:g} (continuum: effective restitution)")
     ax.set_xlabel("Γ = aω²/g")
     ax.legend(fontsize=8)
-    fig.suptitle("Bifurcation diagram of the vibrated bed (f = 20 Hz): a doubled period shows as two branches")
-    fig.tight_layout()
-    fig.savefig(folder / "bed_bifurcation.png", dpi=120)
-    plt.close(fig)
+    _save_figure(fig, "Bifurcation diagram of the vibrated bed (f = 20 Hz): a doubled period shows as two branches",
+                 folder / "bed_bifurcation.png", plt)
 
 
 def _figures(out, runs, base, folder, ref=REFERENCE):
@@ -605,19 +603,14 @@ def _figures(out, runs, base, folder, ref=REFERENCE):
         prof = Path(ref) / "results" / "gamma_3.00_N2000_L13d" / "profiles.csv"
         fig, axes = plt.subplots(1, 4, figsize=(11, 4), sharey=True)
         ref_phi = _read_csv(prof) if prof.exists() else None
-        labels = {"phase0": "ωt = 0", "phase_pi2": "ωt = π/2", "phase_pi": "ωt = π", "phase_3pi2": "ωt = 3π/2"}
         for axk, (key, (z, phi)) in zip(axes, res.profiles.items()):
             axk.plot(phi, z / d, label="continuum (CG σ = d/2)")
             if ref_phi is not None:
                 axk.plot(ref_phi[f"phi_{key}"], ref_phi["z_rel_over_d"], "--", label="LIGGGHTS (CG σ = d/2)")
-            axk.set_title(labels[key])
+            axk.set_title(PHASE_LABELS[key])
             axk.set_xlabel("solid fraction φ")
-        axes[0].set_ylabel("height above the floor [d]")
-        axes[0].legend(fontsize=7)
-        fig.suptitle("Γ = 3: solid fraction at four floor phases, mean over cycles 3–10")
-        fig.tight_layout()
-        fig.savefig(folder / "bed_profiles_gamma3.png", dpi=120)
-        plt.close(fig)
+        _finish_profile_figure(fig, axes[0], "Γ = 3: solid fraction at four floor phases, mean over cycles 3–10",
+                               folder / "bed_profiles_gamma3.png", plt)
         g3 = next((c for c in cases if c["gamma"] == 3.0), None)
         if g3 is not None and "temperature" in g3:
             _temperature_figure(g3["temperature"], res, Path(ref) / "results" / "gamma_3.00_N2000_L13d",
@@ -669,10 +662,8 @@ def _energy_figure(case, res, dem_dir: Path, base, folder, plt):
     ax.set_xlabel("floor phase [cycles]")
     ax.set_ylabel("rate of loss [W]")
     ax.legend(fontsize=7)
-    fig.suptitle("Γ = 3, e = 0.9, frictionless: the bed's internal energy")
-    fig.tight_layout()
-    fig.savefig(folder / "bed_energy_gamma3.png", dpi=120)
-    plt.close(fig)
+    _save_figure(fig, "Γ = 3, e = 0.9, frictionless: the bed's internal energy", folder / "bed_energy_gamma3.png",
+                 plt)
 
 
 def _temperature_figure(temp, res, dem_dir: Path, base, folder, plt):
@@ -692,7 +683,6 @@ def _temperature_figure(temp, res, dem_dir: Path, base, folder, plt):
     ax.legend(fontsize=7)
     path = dem_dir / "temperature_profiles.csv"
     dem = _read_csv(path) if path.exists() else None
-    labels = {"phase0": "ωt = 0", "phase_pi2": "ωt = π/2", "phase_pi": "ωt = π", "phase_3pi2": "ωt = 3π/2"}
     for axk, (key, (z, tz, th)) in zip(axes[1:], res.theta_profiles.items()):
         axk.plot(th, z / d, "-", color="C0", label="continuum θ (horizontal CG)")
         axk.plot(tz, z / d, "-", color="C1", label="continuum vertical CG")
@@ -701,14 +691,29 @@ def _temperature_figure(temp, res, dem_dir: Path, base, folder, plt):
             zz = np.asarray(dem["z_rel_over_d"])[m]
             axk.plot(np.asarray(dem[f"theta_z_{key}"])[m], zz, ":", color="C3", label="LIGGGHTS θ_z")
             axk.plot(np.asarray(dem[f"theta_h_{key}"])[m], zz, ":", color="C2", label="LIGGGHTS θ_h")
-        axk.set_title(labels[key])
+        axk.set_title(PHASE_LABELS[key])
         axk.set_xlabel("θ [m²/s²] (CG σ = d/2)")
-    axes[1].set_ylabel("height above the floor [d]")
-    axes[1].legend(fontsize=7)
-    fig.suptitle("Γ = 3, e = 0.9, frictionless: granular temperature, mean over cycles 3–10")
+    _finish_profile_figure(fig, axes[1], "Γ = 3, e = 0.9, frictionless: granular temperature, mean over cycles 3–10",
+                           folder / "bed_temperature_gamma3.png", plt)
+
+
+PHASE_LABELS = {"phase0": "ωt = 0", "phase_pi2": "ωt = π/2", "phase_pi": "ωt = π", "phase_3pi2": "ωt = 3π/2"}
+"""The four floor phases of the profiles, as the figures name them."""
+
+
+def _save_figure(fig, title, path, plt):
+    """The figure's title; saved to ``path`` at 120 dpi, closed."""
+    fig.suptitle(title)
     fig.tight_layout()
-    fig.savefig(folder / "bed_temperature_gamma3.png", dpi=120)
+    fig.savefig(path, dpi=120)
     plt.close(fig)
+
+
+def _finish_profile_figure(fig, first_panel, title, path, plt):
+    """The height axis and legend on the first profile panel; then :func:`_save_figure`."""
+    first_panel.set_ylabel("height above the floor [d]")
+    first_panel.legend(fontsize=7)
+    _save_figure(fig, title, path, plt)
 
 
 def format_table(out) -> str:
