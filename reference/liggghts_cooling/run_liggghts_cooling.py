@@ -15,11 +15,12 @@ alone (not from the bed).
 
 Per phi: N = 2000 spheres inserted at random (seed 12345) in a periodic cube at the phi that
 random insertion reaches, compressed to phi by `fix deform` with elastic contacts (e = 1, so that
-the compression keeps them agitated), then given Gaussian velocities of variance theta_0 per
-component (zero total momentum) and let cool with the contact law (e = 0.9); the kinetic energy
-every 20 steps, with the contacts' (pair virial) pressure.  Results: cooling.csv (t, theta per
+the compression keeps them agitated), relaxed at fixed phi under a strong drag (the compression's
+heat and its overlaps' elastic energy taken out), then given Gaussian velocities of variance
+theta_0 per component (zero total momentum) and let cool with the contact law (e = 0.9); the
+kinetic energy every 20 steps, with the contacts' (pair virial) pressure.  Results: cooling.csv (t, theta per
 phi, every 1e-4 s) and summary.json (the fitted slope of theta^(-1/2) while theta falls from
-theta_0 to theta_0/4 and the contact value g0 it implies, beside Carnahan-Starling's; and the
+0.9 theta_0 to theta_0/4 and the contact value g0 it implies, beside Carnahan-Starling's; and the
 pressure route's g0, from p_c = 2 (1 + e) rho_s phi^2 g0 theta over the same window).  Big files
 go to work/.
 """
@@ -44,6 +45,8 @@ PHIS = (0.1, 0.2, 0.3, 0.4, 0.5, 0.55, 0.58, 0.6, 0.61, 0.62, 0.63)
 PHI_INSERT = 0.25
 COMPRESS_S = 0.05        # compression time [s]
 COOL_S = 0.05            # cooling time [s]
+RELAX_S = 0.03           # relaxation at fixed phi after the compression [s]
+RELAX_TAU_S = 1e-3       # its drag's relaxation time m/gamma [s]
 PRINT_EVERY = 20
 SEED = 12345
 
@@ -73,6 +76,17 @@ newton          off
 communicate     single vel yes
 processors      1 1 1
 """
+
+
+def max_overlap(pos, lx: float) -> float:
+    """The largest overlap d − r [m] of any pair in the periodic cube of side lx (0 when none)."""
+    from scipy.spatial import cKDTree
+    pairs = cKDTree(pos, boxsize=lx).query_pairs(bed.D, output_type="ndarray")
+    if len(pairs) == 0:
+        return 0.0
+    dx = pos[pairs[:, 0]] - pos[pairs[:, 1]]
+    dx -= lx * np.round(dx / lx)
+    return float(bed.D - np.sqrt((dx * dx).sum(axis=1)).min())
 
 
 def deck_start(data: str, contact: str, dt: float) -> str:
@@ -113,12 +127,21 @@ thermo          {max(1, n_comp // 10)}
 thermo_modify   norm no
 run {n_comp}
 unfix squeeze
+# relax at fixed phi: a strong drag (relaxation time {RELAX_TAU_S:g} s) takes out the compression's
+# heat and the elastic energy of its overlaps, so that the cooling starts from theta_0 alone
+fix damp all viscous {bed.MASS / RELAX_TAU_S:.10g}
+run {int(round(RELAX_S / dt))}
+unfix damp
 write_dump all custom compressed.dump id x y z vx vy vz modify sort id
 """
     (wd / "in.compress").write_text(deck)
     wall_c = bed.run_liggghts(wd / "in.compress", wd, Path("log.compress"))
     _, ids, x = bed.read_dump(wd / "compressed.dump")[-1]
-    write_data(wd / "cool.data", x[:, :3] % l_end, gaussian(N, THETA0, rng), l_end)
+    relaxed_ke = 0.5 * bed.MASS * float((x[:, 3:6] ** 2).sum())
+    overlap = max_overlap(x[:, :3] % l_end, l_end)
+    v0 = gaussian(N, THETA0, rng)
+    theta_start = float((v0 ** 2).sum() / (3.0 * N))
+    write_data(wd / "cool.data", x[:, :3] % l_end, v0, l_end)
     n_cool = int(round(COOL_S / dt))
     deck = deck_start("cool.data", contact, dt) + f"""compute k all ke
 compute sa all stress/atom pair
@@ -136,22 +159,27 @@ run {n_cool}
     (wd / "in.cool").write_text(deck)
     wall = bed.run_liggghts(wd / "in.cool", wd, Path("log.cool"))
     a = bed.read_columns(wd / "ke.txt")
+    a = np.vstack([[0.0, 1.5 * N * bed.MASS * theta_start, N, np.nan], a])     # t = 0: the velocities given
     t = a[:, 0] * dt
     theta = 2.0 * a[:, 1] / (3.0 * N * bed.MASS)
-    # Haff: theta^(-1/2) linear in t; its slope over theta_0 .. theta_0/4
+    # Haff: theta^(-1/2) linear in t; its slope while theta falls from 0.9 theta_0 to theta_0/4 (the
+    # first tenth left to the structure's adjustment to the new velocities)
+    start = int(np.argmax(theta < 0.9 * THETA0)) if (theta < 0.9 * THETA0).any() else 1
     fall = theta >= THETA0 / 4.0
     stop = int(np.argmin(fall)) if not fall.all() else len(theta)
-    sl = np.polyfit(t[:stop], theta[:stop] ** -0.5, 1)[0] if stop > 5 else float("nan")
+    sl = np.polyfit(t[start:stop], theta[start:stop] ** -0.5, 1)[0] if stop - start > 5 else float("nan")
     enskog = 4.0 * (1.0 - bed.E_REST ** 2) * phi / (bed.D * math.sqrt(math.pi))     # per unit g0
     # the pressure route: the contacts' (virial) pressure p_c = 2 (1 + e) rho_s phi^2 g0 theta, its
     # least-squares proportion to theta over the same window
-    pc, th = a[:stop, 3], theta[:stop]
+    pc, th = a[start:stop, 3], theta[start:stop]
     g0_p = float(np.sum(pc * th) / np.sum(th * th) / (2.0 * (1.0 + bed.E_REST) * bed.RHO * phi * phi))
     return {"phi": phi, "box_m": l_end, "dt_s": dt, "slope_theta_inv_sqrt_s_per_m": float(sl),
             "g0_measured": float(sl / enskog), "g0_carnahan_starling": g0_cs(phi),
             "ratio_to_carnahan_starling": float(sl / enskog / g0_cs(phi)),
             "g0_pressure_route": g0_p, "ratio_pressure_route_to_carnahan_starling": g0_p / g0_cs(phi),
-            "fit_window_s": [0.0, float(t[stop - 1])] if stop > 0 else None,
+            "fit_window_s": [float(t[start]), float(t[stop - 1])] if stop > start else None,
+            "theta_start_m2_s2": theta_start, "theta_max_m2_s2": float(theta.max()),
+            "relaxed_kinetic_energy_J": relaxed_ke, "relaxed_max_overlap_over_d": overlap / bed.D,
             "theta_end_m2_s2": float(theta[-1]), "atoms_final": int(a[-1, 2]),
             "wall_time_s": wall + wall_c, "t": t, "theta": theta}
 

@@ -270,7 +270,7 @@ def _temperature_against_phase(res, flights, ref: Path, s: BedSetup, tag: str):
 
 
 def _phase_window(phase, start, end, margin):
-    """Which of the phases [cycles, 0 to 1] lie in (start + margin, end − margin) taken modulo one
+    """Which of the phases [cycles, 0 to 1] lie in [start + margin, end − margin) taken modulo one
     cycle (start < end < start + 1: a flight from its take-off to its landing, or the time on the
     floor from a landing to the next take-off)."""
     return ((np.asarray(phase) - start - margin) % 1.0) < (end - start) - 2.0 * margin
@@ -286,10 +286,13 @@ def _floor_work_per_cycle(t, force, s: BedSetup) -> float:
 
 def _dem_energy_budget(folder: Path, s: BedSetup, e_int):
     """The reference bed's dissipation rate from its energy budget, D = F v_floor −
-    d/dt(M v_cm²/2 + M g z_cm + E_int) (its floor_force.csv, trajectory.csv and internal_energy.csv;
-    the contacts' elastic energy left out), over each interval between frames, averaged per phase
-    over cycles 3 to the end: {"phase_mid", "dem_dissipation_W", "dem_dissipation_per_cycle_J",
-    "dem_floor_work_per_cycle_J"}, or None without the files."""
+    d/dt(M v_z,cm²/2 + M g z_cm + E_int) (its floor_force.csv, trajectory.csv and internal_energy.csv;
+    the contacts' elastic energy left out; frictionless runs only: no rotation, no floor
+    friction), over each interval between frames, averaged per phase over cycles 3 to the end:
+    {"phase_mid", "dem_dissipation_W", "dem_dissipation_per_cycle_J", "dem_floor_work_per_cycle_J"},
+    or None without the files.  Per cycle the two are equal up to the bed's change of state over
+    the measured cycles (a periodic bed's budget closes by construction); the checks of the terms
+    are that D ≥ 0 at every phase and that D is −dE_int/dt in flight (tests)."""
     if not ((folder / "trajectory.csv").exists() and (folder / "floor_force.csv").exists()):
         return None
     tr, ff = _read_csv(folder / "trajectory.csv"), _read_csv(folder / "floor_force.csv")
