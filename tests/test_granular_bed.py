@@ -508,6 +508,7 @@ def test_compare_bed_in_workers_gives_the_serial_numbers(tmp_path):
     assert a["cost_s"]["workers"] == 1 and b["cost_s"]["workers"] == 2
 
 
+@pytest.mark.slow
 def test_compare_bed_in_workers_ends_on_sigterm_with_one_line(tmp_path):
     """SIGTERM while the workers run: one line, exit 143, the finished runs kept in --json's file
     (none or some), and no worker process left."""
