@@ -511,7 +511,7 @@ def cg_weights(z: np.ndarray, zg: np.ndarray, w: float = D / 2) -> np.ndarray:
     return np.exp(-0.5 * s * s) / (w * math.sqrt(2 * math.pi))
 
 
-def cg_temperature(z: np.ndarray, v: np.ndarray, zg: np.ndarray, w: float = D / 2):
+def cg_temperature(z: np.ndarray, v: np.ndarray, zg: np.ndarray, w: float = D / 2, g: np.ndarray | None = None):
     """Coarse-grained kinetic moments on the grid zg for one frame (same Gaussian as
     :func:`cg_profile`): returns (n, n*theta_z, n*theta_h, theta_z_i, theta_h_i) with
     n(z) = sum_i G(z - z_i) [1/m], n theta_a = sum_i G v_ia^2 - (sum_i G v_ia)^2 / n (the
@@ -519,7 +519,7 @@ def cg_temperature(z: np.ndarray, v: np.ndarray, zg: np.ndarray, w: float = D / 
     component, theta_h = (theta_xx + theta_yy) / 2 (a mean-velocity gradient adds its variance
     across the kernel, w^2 (dU/dz)^2, to n theta_z / n); and per sphere the squared fluctuations
     (v_iz - U_z(z_i))^2 and ((v_ix - U_x)^2 + (v_iy - U_y)^2) / 2 with U interpolated at z_i."""
-    g = cg_weights(z, zg, w)
+    g = cg_weights(z, zg, w) if g is None else g          # g: the weights, when the caller has them
     n = g.sum(axis=1)
     safe = np.where(n > 0, n, 1.0)
     out, per = [], []
@@ -570,14 +570,15 @@ def write_temperature(out: Path, frames, meta: dict, zg: np.ndarray) -> None:
         if not (n0 <= cyc < ncyc):
             continue
         zr = x[:, 2] - amp * np.sin(OMEGA * tt)
-        n, nthz, nthh, pz, ph = cg_temperature(zr, x[:, 3:6], zg)
+        weights = cg_weights(zr, zg)
+        n, nthz, nthh, pz, ph = cg_temperature(zr, x[:, 3:6], zg, g=weights)
         mean_z[sub] += pz.mean()
         mean_h[sub] += ph.mean()
         count[sub] += 1
         phi = VOL * n / meta["lx_m"] ** 2
         # the local theta of Enskog's loss: the spheres' own fluctuations (about U at their height)
         # coarse-grained, without the kernel's share of a mean-velocity gradient
-        theta = np.where(n > 0, cg_weights(zr, zg) @ ((pz + 2.0 * ph) / 3.0) / np.where(n > 0, n, 1.0), 0.0)
+        theta = np.where(n > 0, weights @ ((pz + 2.0 * ph) / 3.0) / np.where(n > 0, n, 1.0), 0.0)
         pc = np.minimum(phi, 0.95)
         g0 = (1.0 - 0.5 * pc) / (1.0 - pc) ** 3
         gamma = 12.0 * (1.0 - e * e) * g0 * RHO * phi ** 2 * theta ** 1.5 / (D * math.sqrt(math.pi))

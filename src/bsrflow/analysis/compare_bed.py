@@ -150,9 +150,23 @@ def _read_csv(path):
     return np.genfromtxt(path, delimiter=",", names=True, skip_header=1)
 
 
+def _run_dir(ref, gamma: float, tag: str = "") -> Path:
+    """The folder of the reference run at Γ = ``gamma`` (N = 2000, 13 d box; ``tag`` names the
+    variant: "", "_e0.5", "_hooke", "_hooke_mu0.5")."""
+    return Path(ref) / "results" / f"gamma_{gamma:.2f}_N2000_L13d{tag}"
+
+
+def _dem_flight_list(folder: Path):
+    """The reference run's flights [(take-off, landing) in s] from its flights.csv, or None."""
+    path = folder / "flights.csv"
+    if not path.exists():
+        return None
+    return [(float(r["t_takeoff_s"]), float(r["t_landing_s"])) for r in np.atleast_1d(_read_csv(path))]
+
+
 def _reference_case(ref: Path, gamma: float, tag: str):
     """(trajectory, summary) of a LIGGGHTS run, or (None, None)."""
-    d = ref / "results" / f"gamma_{gamma:.2f}_N2000_L13d{tag}"
+    d = _run_dir(ref, gamma, tag)
     if not (d / "trajectory.csv").exists():
         return None, None
     return _read_csv(d / "trajectory.csv"), json.loads((d / "summary.json").read_text())
@@ -203,7 +217,7 @@ def _temperature_against_phase(res, flights, ref: Path, s: BedSetup, tag: str):
     the reference's θ is (θ_z + 2θ_h)/3, its components given too [m²/s²].  Also the start: the
     internal energy T/20 after the floor's start [J] and the first landing [cycles], both beds
     (``flights``: the continuum's)."""
-    folder = ref / "results" / f"gamma_{s.gamma:.2f}_N2000_L13d{tag}"
+    folder = _run_dir(ref, s.gamma, tag)
     path = folder / "temperature.csv"
     if not path.exists():
         return None
@@ -237,8 +251,8 @@ def _temperature_against_phase(res, flights, ref: Path, s: BedSetup, tag: str):
                                                         "median": float(np.median(ratio)),
                                                         "min": float(ratio.min()), "max": float(ratio.max())}
     series = folder / "internal_energy.csv"
-    dem_flights = folder / "flights.csv"
-    if series.exists() and dem_flights.exists() and flights:
+    dem_flights = _dem_flight_list(folder)
+    if series.exists() and dem_flights and flights:
         e_dem = _read_csv(series)
         t_kick = s.period / 20.0
         out["start"] = {
@@ -246,7 +260,7 @@ def _temperature_against_phase(res, flights, ref: Path, s: BedSetup, tag: str):
                 "continuum": float(np.interp(t_kick, res.t, res.internal_energy)),
                 "dem": float(np.interp(t_kick, e_dem["t_s"], e_dem["E_internal_J"]))},
             "first_landing_cycles": {"continuum": float(flights[0][1] / s.period),
-                                     "dem": float(np.atleast_1d(_read_csv(dem_flights)["t_landing_s"])[0] / s.period)},
+                                     "dem": dem_flights[0][1] / s.period},
             "note": "the floor starts at t = 0 with the velocity a omega (a jump): the internal energy it leaves "
                     "in the bed, and the end of the first flight"}
         budget = _dem_energy_budget(folder, s, e_dem)
@@ -321,11 +335,9 @@ def _dem_energy_budget(folder: Path, s: BedSetup, e_int):
 
 def _dem_phases(ref: Path, s: BedSetup, tag: str) -> dict:
     """The reference run's mean take-off and landing phases (its flights.csv, as :func:`flight_phases`)."""
-    path = ref / "results" / f"gamma_{s.gamma:.2f}_N2000_L13d{tag}" / "flights.csv"
-    if not path.exists():
+    flights = _dem_flight_list(_run_dir(ref, s.gamma, tag))
+    if flights is None:
         return {}
-    rows = np.atleast_1d(_read_csv(path))
-    flights = [(float(r["t_takeoff_s"]), float(r["t_landing_s"])) for r in rows]
     takeoff, landing = flight_phases(flights, s.period, s.cycles)
     return {"dem_takeoff_phase": takeoff, "dem_landing_phase": landing}
 
@@ -603,7 +615,8 @@ def _figures(out, runs, base, folder, ref=REFERENCE):
         fig.tight_layout()
         fig.savefig(folder / "bed_trajectory_gamma3.png", dpi=120)
         plt.close(fig)
-        prof = Path(ref) / "results" / "gamma_3.00_N2000_L13d" / "profiles.csv"
+        dem_dir = _run_dir(ref, 3.0)
+        prof = dem_dir / "profiles.csv"
         fig, axes = plt.subplots(1, 4, figsize=(11, 4), sharey=True)
         ref_phi = _read_csv(prof) if prof.exists() else None
         for axk, (key, (z, phi)) in zip(axes, res.profiles.items()):
@@ -616,9 +629,8 @@ def _figures(out, runs, base, folder, ref=REFERENCE):
                                folder / "bed_profiles_gamma3.png", plt)
         g3 = next((c for c in cases if c["gamma"] == 3.0), None)
         if g3 is not None and "temperature" in g3:
-            _temperature_figure(g3["temperature"], res, Path(ref) / "results" / "gamma_3.00_N2000_L13d",
-                                base, folder, plt)
-            _energy_figure(g3, res, Path(ref) / "results" / "gamma_3.00_N2000_L13d", base, folder, plt)
+            _temperature_figure(g3["temperature"], res, dem_dir, base, folder, plt)
+            _energy_figure(g3, res, dem_dir, base, folder, plt)
 
 
 def _energy_figure(case, res, dem_dir: Path, base, folder, plt):
