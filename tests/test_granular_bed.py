@@ -606,3 +606,23 @@ def test_the_gamma3_flight_is_converged_in_the_cells():
     assert 0.024 < means[200] < 0.027, means
     for n in (50, 100):
         assert abs(means[n] / means[200] - 1.0) < 0.005, means
+
+
+@pytest.mark.parametrize("tag", ["", "_hooke"])
+def test_the_reference_beds_energy_budgets_at_gamma3(tag):
+    """The two frictionless LIGGGHTS beds at Γ = 3 (Walton–Braun and the spring–dashpot control,
+    whose velocities were dumped on 2026-12-04), from the committed files alone: the budget's
+    dissipation is ≥ 0 at every phase and, in flight (neither the floor nor gravity works on
+    E_int), LIGGGHTS's own −dE_int/dt within 10 %."""
+    from bsrflow.analysis import compare_bed as cb
+    s = BedSetup(gamma=3.0)
+    folder = cb._run_dir(cb.REFERENCE, 3.0, tag)
+    budget = cb._dem_energy_budget(folder, s, cb._read_csv(folder / "internal_energy.csv"))
+    diss = np.asarray(budget["dem_dissipation_W"])
+    assert len(diss) == 40 and diss.min() >= 0.0
+    assert 0.012 < budget["dem_dissipation_per_cycle_J"] < 0.017       # 14.6 and 14.3 mJ (docs/model.md)
+    loss = np.asarray(cb._read_csv(folder / "temperature.csv")["loss_W"], dtype=float)
+    phases = cb._dem_phases(cb.REFERENCE, s, tag)
+    fly = cb_phase_window(np.asarray(budget["phase_mid"]), phases["dem_takeoff_phase"], phases["dem_landing_phase"], 0.05)
+    assert fly.sum() >= 10
+    np.testing.assert_allclose(diss[fly], (0.5 * (loss + np.roll(loss, -1)))[fly], rtol=0.1)
