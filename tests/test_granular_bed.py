@@ -626,3 +626,23 @@ def test_the_reference_beds_energy_budgets_at_gamma3(tag):
     fly = cb_phase_window(np.asarray(budget["phase_mid"]), phases["dem_takeoff_phase"], phases["dem_landing_phase"], 0.05)
     assert fly.sum() >= 10
     np.testing.assert_allclose(diss[fly], (0.5 * (loss + np.roll(loss, -1)))[fly], rtol=0.1)
+
+
+def test_compare_bed_compares_each_main_run_with_the_spring_dashpot_bed_too(tmp_path):
+    """With the extra runs (the default): each main case's continuum run is compared, as it is, with
+    the frictionless spring–dashpot LIGGGHTS bed at that Γ as well (``spring_dashpot_cases``); the
+    rest of the extra runs (e = 0.5, friction, the 30-cycle friction runs) end to end."""
+    out = tmp_path / "bed.json"
+    assert main(["compare-bed", "--gammas", "3", "--cells", "24", "--json", str(out)]) == 0
+    data = json.loads(out.read_text())
+    main_case, sd = data["cases"][0], data["spring_dashpot_cases"]
+    assert [c["gamma"] for c in sd] == [3.0] and sd[0]["dem"] == "LIGGGHTS spring-dashpot, frictionless"
+    for key in ("flight_time_s", "flight_time_per_cycle_s", "takeoff_phase", "landing_phase", "steps", "wall_time_s"):
+        assert sd[0][key] == main_case[key]                          # the same continuum run
+    assert sd[0]["dem_flight_time_s"] == pytest.approx(0.02569, abs=5e-5)     # the committed runs' flights
+    assert main_case["dem_flight_time_s"] == pytest.approx(0.02720, abs=5e-5)
+    assert sd[0]["temperature"]["energy_budget"]["dem_dissipation_per_cycle_J"] > 0
+    assert not any("frictionless" in c.get("dem", "") and "spring" in c.get("dem", "") for c in data["extra_cases"])
+    assert {c["restitution"] for c in data["extra_cases"]} == {0.5, 0.9}
+    assert data["period_doubling_gamma_friction_mu0.5"]["dem"] == 3.75
+    assert "spring_dashpot_note" in data

@@ -9,6 +9,7 @@ reduces its output into small CSV/JSON files next to this script:
   python reference/liggghts_bed/run_liggghts.py --gamma 3          # vibrate the settled bed
   python reference/liggghts_bed/run_liggghts.py --gamma 3 --model hooke --friction 0.5
   python reference/liggghts_bed/run_liggghts.py --gamma 3 --model hooke            # its control
+  python reference/liggghts_bed/run_liggghts.py --gamma 1.5 2 2.5 3.5 4 4.5 5 5.5 6 6.5 7 7.5 8 --model hooke
   python reference/liggghts_bed/run_liggghts.py --gamma 4 --restitution 0.5       # exploratory
   python reference/liggghts_bed/run_liggghts.py --settle --n 10000 --lateral 29
   python reference/liggghts_bed/run_liggghts.py --gamma 3 --n 10000 --lateral 29
@@ -1008,7 +1009,8 @@ def summary() -> None:
     pdg_by_e = {}
     groups = (("walton_braun", 0.0, 0.9, "flight_vs_gamma.csv", "0.9"),
               ("walton_braun", 0.0, 0.5, "flight_vs_gamma_e0.5.csv", "0.5"),
-              ("hooke", 0.5, 0.9, "flight_vs_gamma_hooke_mu0.5.csv", "hooke_mu0.5"))
+              ("hooke", 0.5, 0.9, "flight_vs_gamma_hooke_mu0.5.csv", "hooke_mu0.5"),
+              ("hooke", 0.0, 0.9, "flight_vs_gamma_hooke.csv", "hooke"))
     for model_, mu_, e_val, fname, key in groups:
         main = [s for s in rows if s["n"] == 2000 and s["model"] == model_ and s["friction"] == mu_
                 and s.get("restitution", 0.9) == e_val]
@@ -1031,6 +1033,9 @@ def summary() -> None:
     params["period_doubling_gamma_exploratory_e0.5"] = pdg_by_e.get("0.5", {}).get("period_doubling")
     params["period_doubling_gamma_friction_mu0.5"] = pdg_by_e.get("hooke_mu0.5", {}).get("period_doubling")
     params["gamma_list_friction_mu0.5"] = pdg_by_e.get("hooke_mu0.5", {}).get("gammas")
+    # the frictionless spring-dashpot bed (the friction runs' control law) over Gamma, since 2026-12-04
+    params["period_doubling_gamma_spring_dashpot"] = pdg_by_e.get("hooke", {}).get("period_doubling")
+    params["gamma_list_spring_dashpot"] = pdg_by_e.get("hooke", {}).get("gammas")
     params["period_doubling_note"] = ("main runs (e=0.9, frictionless): no period doubling for 1.5 <= Gamma <= 6 "
                                       "(null); e=0.5 runs are exploratory (same settled bed, same K and dt)")
     params["runs"] = [{k: s.get(k) for k in ("name", "gamma", "n", "lateral_d", "model", "friction", "restitution",

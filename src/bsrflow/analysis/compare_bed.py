@@ -17,8 +17,10 @@ the same measures as the reference's post-processing (``reference/liggghts_bed/r
   the midpoint between the last single and the first doubled Γ.
 
 The exploratory e = 0.5 runs and the frictional runs (μ = 0.5, spring–dashpot, Γ = 3–4.5) are
-compared too.  The frictional runs twice: against the smooth continuum at Γ = 3 (the effect of
-friction, reported, not tuned away) and against the continuum with friction μ = 0.5, which
+compared too, and each main case's continuum run also with the frictionless spring–dashpot bed
+at the same Γ (``spring_dashpot_cases``: the same K and e, another contact law).  The
+frictional runs twice: against the smooth continuum at Γ = 3 (the effect of friction, reported,
+not tuned away) and against the continuum with friction μ = 0.5, which
 enters only as the collisional losses' effective restitution e − (3/2)μ exp(−3μ) (Chialvo and
 Sundaresan 2013, :attr:`BedSetup.dissipation_restitution`; a closure from the literature, not
 fitted here).  The continuum's frictional period doubling is also measured over 30 cycles
@@ -173,10 +175,19 @@ def _reference_case(ref: Path, gamma: float, tag: str):
 
 
 def _compare_one(setup: BedSetup, ref: Path, tag: str, progress=None):
-    from ..numerics.bed_lagrangian import run_bed
+    """(the case's dict, the continuum's run, the reference's trajectory) of the continuum bed
+    ``setup`` against the reference run ``tag`` (:func:`_case_against`)."""
+    run = _continuum_flights(setup, progress)
+    case, traj = _case_against(run, setup, ref, tag)
+    return case, run[0], traj
 
+
+def _case_against(run, setup: BedSetup, ref: Path, tag: str):
+    """(the case's dict, the reference's trajectory) of a continuum run (:func:`_continuum_flights`'
+    tuple) against the reference run ``tag`` at the setup's Γ: the same run can be compared with
+    several references (the frictionless Walton–Braun and spring–dashpot beds)."""
     s = setup
-    res, flights, tau, last6 = _continuum_flights(s, progress)
+    res, flights, tau, last6 = run
     traj, summ = _reference_case(ref, s.gamma, tag)
     takeoff, landing = flight_phases(flights, s.period, s.cycles)
     t_startup = (STARTUP_CYCLES - 1e-9) * s.period     # the sample at 3T included (3 * 0.05 > 0.15 in floats)
@@ -207,7 +218,7 @@ def _compare_one(setup: BedSetup, ref: Path, tag: str, progress=None):
         temp = _temperature_against_phase(res, flights, ref, s, tag)
         if temp is not None:
             case["temperature"] = temp
-    return case, res, traj
+    return case, traj
 
 
 def _temperature_against_phase(res, flights, ref: Path, s: BedSetup, tag: str):
@@ -347,9 +358,14 @@ def _continuum_flights(s: BedSetup, progress=None):
     continuum bed ``s`` (:func:`bsrflow.numerics.bed_lagrangian.run_bed`)."""
     from ..numerics.bed_lagrangian import run_bed
     res = run_bed(s, progress=progress)
+    return (res,) + _flights_of(res, s)
+
+
+def _flights_of(res, s: BedSetup):
+    """(flights, flight per cycle [s], the last six finished flights [s]) of a continuum run."""
     flights = flights_from_force(res.t, res.floor_force, s.n_spheres * s.sphere_mass * s.gravity)
     tau = flight_per_cycle(flights, s.period, s.cycles)
-    return res, flights, tau, last_complete_flights(tau)
+    return flights, tau, last_complete_flights(tau)
 
 
 def _long_friction_run(setup: BedSetup) -> dict:
@@ -403,6 +419,10 @@ def reference_bed(ref: Path, n_cells=200):
     return gammas, params, base
 
 
+SPRING_DASHPOT = "_hooke"
+"""The reference runs' tag of the frictionless spring–dashpot bed (the same K and e)."""
+SPRING_DASHPOT_RUNS = "LIGGGHTS spring-dashpot, frictionless"
+
 MODEL = ("packing stress + granular temperature (bsrflow.physics.granular_bed), horizontally uniform bed "
          "(1-D limit of the 3-D bed)")
 
@@ -418,16 +438,15 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
     ref = Path(reference)
     known, params, base = reference_bed(ref, n_cells)
     gammas = [float(g) for g in (known if gammas is None else gammas)]
-    cases, runs, extra, long_runs = [], {}, [], []
+    cases, runs, extra, long_runs, spring_dashpot = [], {}, [], [], []
     # (kind, setup, reference tag, list it joins, what the reference run is)
     tasks = [("case", base.with_(gamma=g), "", cases, None) for g in gammas]
     if include_extra:
         e05 = _read_csv(ref / "flight_vs_gamma_e0.5.csv")
         tasks += [("case", base.with_(gamma=g, restitution=0.5), "_e0.5", extra,
                    "LIGGGHTS Walton-Braun e = 0.5, frictionless") for g in [float(x) for x in e05["gamma"]]]
-        tasks += [("case", base.with_(gamma=3.0), tag, extra, what) for tag, what in (
-            ("_hooke_mu0.5", "LIGGGHTS spring-dashpot, friction 0.5; the continuum smooth"),
-            ("_hooke", "LIGGGHTS spring-dashpot, frictionless (the friction run's control)"))]
+        tasks += [("case", base.with_(gamma=3.0), "_hooke_mu0.5", extra,
+                   "LIGGGHTS spring-dashpot, friction 0.5; the continuum smooth")]
         fric = _read_csv(ref / "flight_vs_gamma_hooke_mu0.5.csv")
         tasks += [("case", base.with_(gamma=g, friction=FRICTION), "_hooke_mu0.5", extra,
                    f"LIGGGHTS spring-dashpot, friction {FRICTION:g}; the continuum with friction {FRICTION:g}")
@@ -448,8 +467,17 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
         if dem is not None:
             case["dem"] = dem
         into.append(case)
+        _log_case(case, dem)
         if into is cases:
             runs[case["gamma"]] = (res, traj)
+            if include_extra and _reference_case(ref, setup.gamma, SPRING_DASHPOT)[0] is not None:
+                # the same continuum run against the frictionless spring-dashpot bed (same K and e)
+                other, _ = _case_against((res,) + _flights_of(res, setup), setup, ref, SPRING_DASHPOT)
+                other["dem"] = SPRING_DASHPOT_RUNS
+                spring_dashpot.append(other)
+                _log_case(other, SPRING_DASHPOT_RUNS)
+
+    def _log_case(case, dem):
         if log:
             mu = f", μ = {case['friction']:g}" if case["friction"] else ""
             log(f"  Γ = {case['gamma']:g}, e = {case['restitution']:g}{mu}{' (' + dem + ')' if dem else ''}: flight "
@@ -469,7 +497,8 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                 finish(task, _bed_task(task[0], task[1], ref, task[2], progress))
     except (KeyboardInterrupt, SimulationError) as exc:
         exc.partial = {"model": MODEL, "fitted_constants": {}, "n_cells": n_cells, "cases": cases,
-                       "extra_cases": extra, f"friction_{LONG_CYCLES}_cycles_runs": long_runs}
+                       "extra_cases": extra, "spring_dashpot_cases": spring_dashpot,
+                       f"friction_{LONG_CYCLES}_cycles_runs": long_runs}
         raise
     g3 = next((c for c in cases if c["gamma"] == 3.0), None)
     out = {
@@ -488,6 +517,11 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
         "n_cells": n_cells,
         "cases": cases,
         "extra_cases": extra,
+        "spring_dashpot_cases": spring_dashpot,
+        "spring_dashpot_note": ("the main cases' continuum runs (the same runs, smooth, e = 0.9) against LIGGGHTS's "
+                                "frictionless spring-dashpot bed (hooke/stiffness with a viscous dashpot for e, the same "
+                                "K and e as the main Walton-Braun runs; the issue's simpler alternative law) at every "
+                                "Gamma it was run; the main comparison stays the Walton-Braun one"),
         "period_doubling_gamma": {
             "continuum": _doubling_gamma([c["gamma"] for c in cases], [c["period_doubled"] for c in cases]),
             "dem": (params.get("period_doubling_gamma") or {}).get("estimate"),
@@ -515,7 +549,7 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                            "committed summary of its serial run on this machine type (2026-12-01)"},
     }
     if not include_extra:
-        del out["period_doubling_gamma_friction_mu0.5"]
+        del out["period_doubling_gamma_friction_mu0.5"], out["spring_dashpot_cases"], out["spring_dashpot_note"]
     if figures:
         _figures(out, runs, base, Path(figures), ref)
     return out
@@ -549,7 +583,9 @@ def _bifurcation_figure(out, ref, folder, plt):
     ax = axes[0]
     branches(ax, [(c["gamma"], c["flight_time_per_cycle_s"]) for c in out["cases"]], -0.04, "o", "C0",
              "continuum (11 cycles)")
-    branches(ax, sorted(_dem_flights(ref / "flight_vs_gamma.csv").items()), 0.04, "s", "C1", "LIGGGHTS")
+    branches(ax, sorted(_dem_flights(ref / "flight_vs_gamma.csv").items()), 0.04, "s", "C1", "LIGGGHTS Walton–Braun")
+    branches(ax, sorted(_dem_flights(ref / "flight_vs_gamma_hooke.csv").items()), 0.12, "d", "C2",
+             "LIGGGHTS spring-dashpot")
     ax.set_title("frictionless, e = 0.9")
     ax.set_xlabel("Γ = aω²/g")
     ax.set_ylabel("flight time of the last six cycles [ms]")
@@ -577,12 +613,16 @@ def _figures(out, runs, base, folder, ref=REFERENCE):
     fig, ax = plt.subplots(figsize=(6, 4))
     g = [c["gamma"] for c in cases]
     ax.plot(g, [1e3 * c["flight_time_s"] for c in cases], "o-", label="continuum, e = 0.9")
-    ax.plot(g, [1e3 * c.get("dem_flight_time_s", np.nan) for c in cases], "s--", label="LIGGGHTS, e = 0.9")
+    ax.plot(g, [1e3 * c.get("dem_flight_time_s", np.nan) for c in cases], "s--", label="LIGGGHTS Walton–Braun, e = 0.9")
+    sd = out.get("spring_dashpot_cases") or []
+    if sd:
+        ax.plot([c["gamma"] for c in sd], [1e3 * c.get("dem_flight_time_s", np.nan) for c in sd], "d:", color="C2",
+                label="LIGGGHTS spring-dashpot, e = 0.9")
     e05 = [c for c in out["extra_cases"] if c["restitution"] == 0.5]
     if e05:
         ax.plot([c["gamma"] for c in e05], [1e3 * c["flight_time_s"] for c in e05], "^-", label="continuum, e = 0.5")
         ax.plot([c["gamma"] for c in e05], [1e3 * c.get("dem_flight_time_s", np.nan) for c in e05], "v--",
-                label="LIGGGHTS, e = 0.5")
+                label="LIGGGHTS Walton–Braun, e = 0.5")
     fr = [c for c in out["extra_cases"] if c.get("friction")]
     if fr:
         ax.plot([c["gamma"] for c in fr], [1e3 * c["flight_time_s"] for c in fr], "<-",
@@ -734,7 +774,7 @@ def _finish_profile_figure(fig, first_panel, title, path, plt):
 def format_table(out) -> str:
     rows = ["| Γ | flight continuum [ms] | flight LIGGGHTS [ms] | difference | mass-centre RMS [d] | period doubled "
             "(continuum / LIGGGHTS) |", "|---|---|---|---|---|---|"]
-    for c in out["cases"] + out["extra_cases"]:
+    for c in out["cases"] + out["extra_cases"] + out.get("spring_dashpot_cases", []):
         name = f"{c['gamma']:g}" + ("" if "dem" not in c else f" ({c['dem']})")
         rows.append(f"| {name} | {1e3 * c['flight_time_s']:.1f} | {1e3 * c.get('dem_flight_time_s', float('nan')):.1f} | "
                     f"{100 * c.get('flight_time_rel_diff', float('nan')):+.1f} % | "
