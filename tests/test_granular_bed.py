@@ -646,3 +646,4 @@ def test_compare_bed_compares_each_main_run_with_the_spring_dashpot_bed_too(tmp_
     assert {c["restitution"] for c in data["extra_cases"]} == {0.5, 0.9}
     assert data["period_doubling_gamma_friction_mu0.5"]["dem"] == 3.75
     assert "spring_dashpot_note" in data
+    assert data["period_doubling_gamma_spring_dashpot"]["dem"] == 7.25     # params.json: 7.5 doubled, 7 single

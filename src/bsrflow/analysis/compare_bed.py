@@ -536,6 +536,12 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
             "note": f"the frictional runs (spring-dashpot, mu = {FRICTION:g}) against the continuum with friction "
                     f"{FRICTION:g} (effective restitution, Chialvo and Sundaresan 2013); 'continuum' over the "
                     f"reference's 11 cycles, the {LONG_CYCLES}-cycle runs' last six flights for its settled state"},
+        "period_doubling_gamma_spring_dashpot": {
+            "continuum": _doubling_gamma([c["gamma"] for c in spring_dashpot],
+                                         [c["period_doubled"] for c in spring_dashpot]),
+            "dem": (params.get("period_doubling_gamma_spring_dashpot") or {}).get("estimate"),
+            "note": "the main continuum runs against the frictionless spring-dashpot bed; its doubling is one "
+                    "Gamma's (7.5: alternating, single at 7 and 8; reference README)"},
         "period_doubling_gamma_e0.5": {
             "continuum": _doubling_gamma([c["gamma"] for c in extra if c["restitution"] == 0.5],
                                          [c["period_doubled"] for c in extra if c["restitution"] == 0.5]),
@@ -549,7 +555,9 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                            "committed summary of its serial run on this machine type (2026-12-01)"},
     }
     if not include_extra:
-        del out["period_doubling_gamma_friction_mu0.5"], out["spring_dashpot_cases"], out["spring_dashpot_note"]
+        for key in ("period_doubling_gamma_friction_mu0.5", "spring_dashpot_cases", "spring_dashpot_note",
+                    "period_doubling_gamma_spring_dashpot"):
+            del out[key]
     if figures:
         _figures(out, runs, base, Path(figures), ref)
     return out
@@ -856,6 +864,10 @@ def _main(args) -> int:
         print(f"period-doubling Γ with friction {FRICTION:g}: continuum {gamma_text(pf['continuum'])} (11 cycles), "
               f"{gamma_text(pf[f'continuum_{LONG_CYCLES}_cycles'])} ({LONG_CYCLES} cycles); LIGGGHTS "
               f"{gamma_text(pf['dem'])}")
+    psd = out.get("period_doubling_gamma_spring_dashpot")
+    if psd is not None:
+        print(f"period-doubling Γ against the spring-dashpot bed: continuum {gamma_text(psd['continuum'])}, "
+              f"LIGGGHTS spring-dashpot {gamma_text(psd['dem'])}")
     print(f"period-doubling Γ: continuum {gamma_text(pd['continuum'])}, LIGGGHTS {gamma_text(pd['dem'])}; "
           f"cost (Γ = 3): continuum {seconds(cost['continuum'])}, LIGGGHTS {seconds(cost['dem'])}; "
           f"total {time.perf_counter() - t0:.1f} s")
