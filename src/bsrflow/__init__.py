@@ -15,13 +15,17 @@ NUMBA_CACHE_DIR = use_versioned_cache_dir()
 numba's default (or the user's ``NUMBA_CACHE_DIR``) is used."""
 
 from .numerics.grid import Grid1D  # noqa: E402
+from .numerics.grid_nd import GridND  # noqa: E402
 from .numerics.solver import Scheme, Simulation, SimulationError, SimulationResult  # noqa: E402
+from .numerics.solver_nd import ResultND, SimulationND  # noqa: E402
 from .physics.kernels import Kernel, walton_braun, walton_braun_from_contact, zero_kernel  # noqa: E402
+from .physics.kernels_nd import BSRModelND, KernelND, walton_braun_nd  # noqa: E402
 from .physics.model import BSRModel  # noqa: E402
 from .physics.motion import AppliedMotion, HalfSineTaps, Rest, SinusoidalVibration  # noqa: E402
 
 __all__ = [
     "Grid1D", "Scheme", "Simulation", "SimulationError", "SimulationResult", "Kernel", "walton_braun",
     "walton_braun_from_contact", "zero_kernel", "BSRModel", "AppliedMotion", "HalfSineTaps", "Rest",
-    "SinusoidalVibration", "__version__",
+    "SinusoidalVibration", "GridND", "SimulationND", "ResultND", "BSRModelND", "KernelND", "walton_braun_nd",
+    "__version__",
 ]
