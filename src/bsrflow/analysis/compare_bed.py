@@ -801,7 +801,8 @@ def add_parser(sub):
     p.add_argument("--gammas", type=float, nargs="+", metavar="G",
                    help="only these Γ of the main runs (default: every Γ of the LIGGGHTS runs, 1.5 to 8)")
     p.add_argument("--cells", type=int, default=200, metavar="N", help="Lagrangian cells over the bed (default 200)")
-    p.add_argument("--no-extra", action="store_true", help="skip the e = 0.5 and friction comparisons")
+    p.add_argument("--no-extra", action="store_true",
+                   help="skip the e = 0.5, friction and spring-dashpot comparisons")
     p.add_argument("--workers", type=int, default=1, metavar="N",
                    help="run the continuum's runs on N processes (default 1; at most 4 per CPU); the same numbers, "
                         "the wall times then those of a shared machine")
