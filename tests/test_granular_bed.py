@@ -403,6 +403,23 @@ def test_bifurcation_figure_reads_the_reference_flights(tmp_path):
     assert (tmp_path / "bed_bifurcation.png").stat().st_size > 10_000
 
 
+def test_temperature_against_gamma_figure_from_the_committed_json(tmp_path):
+    """bed_temperature_vs_gamma.png from the day's committed compare-bed JSON (both DEM beds'
+    temperatures where dumped); no reference θ, no figure."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from pathlib import Path
+
+    from bsrflow.analysis import compare_bed as cb
+    out = json.loads((Path(cb.__file__).resolve().parents[3] / "docs/results/compare_bed_2026-12-04.json").read_text())
+    assert sum("temperature" in c for c in out["spring_dashpot_cases"]) == 14
+    cb._temperature_vs_gamma_figure(out, tmp_path, plt)
+    assert (tmp_path / "bed_temperature_vs_gamma.png").stat().st_size > 10_000
+    cb._temperature_vs_gamma_figure({"cases": [{"gamma": 3.0}]}, tmp_path / "none", plt)
+    assert not (tmp_path / "none").exists()
+
+
 def test_flight_phases_take_the_longest_finished_flight_of_the_last_cycles():
     from bsrflow.analysis.compare_bed import flight_phases
     T = 0.05

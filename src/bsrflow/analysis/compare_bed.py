@@ -611,6 +611,43 @@ def _bifurcation_figure(out, ref, folder, plt):
                  folder / "bed_bifurcation.png", plt)
 
 
+def _temperature_vs_gamma_figure(out, folder, plt):
+    """bed_temperature_vs_gamma.png: the bed's cycle-mean θ against Γ (the continuum, both
+    frictionless LIGGGHTS beds where their velocities were dumped) and the continuum's over
+    LIGGGHTS's, beside the flight's relative difference; nothing written without a reference θ."""
+    series = []
+    for label, marker, color, key in (("LIGGGHTS Walton–Braun", "s", "C1", "cases"),
+                                      ("LIGGGHTS spring-dashpot", "d", "C2", "spring_dashpot_cases")):
+        rows = [(c["gamma"], c["temperature"], c) for c in out.get(key, []) if "temperature" in c]
+        if rows:
+            series.append((label, marker, color, rows))
+    if not series:
+        return
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    cont = {}
+    for label, marker, color, rows in series:
+        g = [r[0] for r in rows]
+        axes[0].plot(g, [1e3 * np.mean(r[1]["dem_theta_m2_s2"]) for r in rows], marker + "--", color=color,
+                     label=label)
+        axes[1].plot(g, [r[1]["cycle_mean_ratio"] for r in rows], marker + "-", color=color,
+                     label=f"θ: continuum / {label}")
+        axes[1].plot(g, [1.0 + r[2]["flight_time_rel_diff"] for r in rows], marker + ":", color=color,
+                     mfc="none", label=f"flight: continuum / {label}")
+        cont.update({r[0]: np.mean(r[1]["continuum_theta_m2_s2"]) for r in rows})
+    gs = sorted(cont)
+    axes[0].plot(gs, [1e3 * cont[g] for g in gs], "o-", color="C0", label="continuum")
+    axes[0].set_yscale("log")
+    axes[0].set_xlabel("Γ = aω²/g")
+    axes[0].set_ylabel("bed's mass-mean θ, cycle mean [10⁻³ m²/s²]")
+    axes[0].legend(fontsize=8)
+    axes[1].axhline(1.0, color="0.6", lw=0.8)
+    axes[1].set_xlabel("Γ = aω²/g")
+    axes[1].set_ylabel("continuum / LIGGGHTS")
+    axes[1].legend(fontsize=7)
+    _save_figure(fig, "Frictionless bed, e = 0.9: granular temperature against Γ (cycles 3–10)",
+                 folder / "bed_temperature_vs_gamma.png", plt)
+
+
 def _figures(out, runs, base, folder, ref=REFERENCE):
     import matplotlib
     matplotlib.use("Agg")
@@ -648,6 +685,7 @@ def _figures(out, runs, base, folder, ref=REFERENCE):
     fig.savefig(folder / "bed_flight_vs_gamma.png", dpi=120)
     plt.close(fig)
     _bifurcation_figure(out, Path(ref), folder, plt)
+    _temperature_vs_gamma_figure(out, folder, plt)
     if 3.0 in runs:
         res, traj = runs[3.0]
         fig, ax = plt.subplots(figsize=(7, 4))
