@@ -1,9 +1,15 @@
 """A pool of worker processes for the comparisons' independent runs (``compare --kernel packing
 --workers``, ``compare-bed --workers``): spawned processes (no fork of a numba-compiled parent),
-Ctrl-C and SIGTERM handled by the parent alone, the workers ended with it."""
+Ctrl-C and SIGTERM handled by the parent alone, the workers ended with it.
+
+Built on :class:`concurrent.futures.ProcessPoolExecutor`, which notices a worker that dies and
+ends its pool cleanly.  ``multiprocessing.Pool`` was used before 2026-12-04; its ``terminate``
+can hang for good when a worker is ended while it holds one of the pool's queue locks (seen once
+in the test suite: the parent waiting on a lock, both workers gone)."""
 
 from __future__ import annotations
 
+import concurrent.futures
 import contextlib
 import multiprocessing
 import signal
@@ -17,12 +23,33 @@ def _ignore_sigint():
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+class _Pending:
+    """A submitted run: ``get()`` waits for its result (or raises its exception)."""
+
+    def __init__(self, future):
+        self._future = future
+
+    def get(self):
+        return self._future.result()
+
+
+class _Pool:
+    """What the callers use of a pool: ``apply_async(fn, args)`` -> an object with ``get()``."""
+
+    def __init__(self, executor):
+        self._executor = executor
+
+    def apply_async(self, fn, args=()):
+        return _Pending(self._executor.submit(fn, *args))
+
+
 @contextlib.contextmanager
 def worker_pool(workers: int):
-    """``multiprocessing`` pool of ``workers`` spawned processes for the body of the ``with``.
-    Meanwhile SIGTERM raises KeyboardInterrupt("interrupted by SIGTERM") in the parent with
-    ``exit_code`` 143 (the callers keep their finished runs and exit with it); on leaving, by the
-    end of the body or by any exception, the pool is terminated, ending the runs still going."""
+    """A pool of ``workers`` spawned processes for the body of the ``with`` (``apply_async(fn,
+    args).get()``).  Meanwhile SIGTERM raises KeyboardInterrupt("interrupted by SIGTERM") in the
+    parent with ``exit_code`` 143 (the callers keep their finished runs and exit with it).  On
+    leaving by the end of the body the workers finish and exit; by an exception the runs still
+    waiting are cancelled and the workers still running are ended, then joined."""
     main_thread = threading.current_thread() is threading.main_thread()
 
     def on_term(signum, frame):
@@ -30,7 +57,8 @@ def worker_pool(workers: int):
         exc.exit_code = 128 + int(signum)
         raise exc
     old_term = signal.signal(signal.SIGTERM, on_term) if main_thread else None
-    pool = None
+    executor = None
+    finished = False
     try:
         # the workers start with Ctrl-C ignored: an ignored signal stays ignored across their exec
         # and Python leaves it so, so that a Ctrl-C while they import prints no traceback of theirs
@@ -38,15 +66,29 @@ def worker_pool(workers: int):
         # starts them, a few milliseconds
         old_int = signal.signal(signal.SIGINT, signal.SIG_IGN) if main_thread else None
         try:
-            pool = multiprocessing.get_context("spawn").Pool(workers, initializer=_ignore_sigint)
+            executor = concurrent.futures.ProcessPoolExecutor(
+                workers, mp_context=multiprocessing.get_context("spawn"), initializer=_ignore_sigint)
+            # start every worker now, while Ctrl-C is ignored here (the executor starts them lazily)
+            for fut in [executor.submit(int, 0) for _ in range(workers)]:
+                fut.result()
         finally:
             if main_thread:
                 signal.signal(signal.SIGINT, old_int)
-        yield pool
-        pool.close()
+        yield _Pool(executor)
+        finished = True
     finally:
         if main_thread:
             signal.signal(signal.SIGTERM, old_term)
-        if pool is not None:
-            pool.terminate()
-            pool.join()
+        if executor is not None:
+            procs = list((executor._processes or {}).values())
+            if not finished:
+                executor.shutdown(wait=False, cancel_futures=True)
+                for proc in procs:
+                    if proc.is_alive():
+                        proc.terminate()
+            executor.shutdown(wait=True)
+            for proc in procs:                  # reaped here: no process of the pool outlives it
+                proc.join(timeout=10.0)
+                if proc.is_alive():
+                    proc.kill()
+                    proc.join()
