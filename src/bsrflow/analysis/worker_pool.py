@@ -38,6 +38,8 @@ class _Pool:
 
     def __init__(self, executor):
         self._executor = executor
+        self.processes = []
+        """The pool's worker processes, recorded when the pool ends (all joined by then)."""
 
     def apply_async(self, fn, args=()):
         return _Pending(self._executor.submit(fn, *args))
@@ -57,7 +59,7 @@ def worker_pool(workers: int):
         exc.exit_code = 128 + int(signum)
         raise exc
     old_term = signal.signal(signal.SIGTERM, on_term) if main_thread else None
-    executor = None
+    executor = pool = None
     finished = False
     try:
         # the workers start with Ctrl-C ignored: an ignored signal stays ignored across their exec
@@ -74,7 +76,8 @@ def worker_pool(workers: int):
         finally:
             if main_thread:
                 signal.signal(signal.SIGINT, old_int)
-        yield _Pool(executor)
+        pool = _Pool(executor)
+        yield pool
         finished = True
     finally:
         if main_thread:
@@ -92,3 +95,5 @@ def worker_pool(workers: int):
                 if proc.is_alive():
                     proc.kill()
                     proc.join()
+            if pool is not None:
+                pool.processes = procs
