@@ -412,7 +412,7 @@ def test_temperature_against_gamma_figure_from_the_committed_json(tmp_path):
     from pathlib import Path
 
     from bsrflow.analysis import compare_bed as cb
-    out = json.loads((Path(cb.__file__).resolve().parents[3] / "docs/results/compare_bed_2026-12-04.json").read_text())
+    out = json.loads((Path(__file__).resolve().parents[1] / "docs/results/compare_bed_2026-12-04.json").read_text())
     assert sum("temperature" in c for c in out["spring_dashpot_cases"]) == 14
     cb._temperature_vs_gamma_figure(out, tmp_path, plt)
     assert (tmp_path / "bed_temperature_vs_gamma.png").stat().st_size > 10_000

@@ -175,11 +175,12 @@ def _reference_case(ref: Path, gamma: float, tag: str):
 
 
 def _compare_one(setup: BedSetup, ref: Path, tag: str, progress=None):
-    """(the case's dict, the continuum's run, the reference's trajectory) of the continuum bed
-    ``setup`` against the reference run ``tag`` (:func:`_case_against`)."""
+    """(the case's dict, the continuum's run as :func:`_continuum_flights` returns it, the
+    reference's trajectory) of the continuum bed ``setup`` against the reference run ``tag``
+    (:func:`_case_against`)."""
     run = _continuum_flights(setup, progress)
     case, traj = _case_against(run, setup, ref, tag)
-    return case, run[0], traj
+    return case, run, traj
 
 
 def _case_against(run, setup: BedSetup, ref: Path, tag: str):
@@ -358,14 +359,9 @@ def _continuum_flights(s: BedSetup, progress=None):
     continuum bed ``s`` (:func:`bsrflow.numerics.bed_lagrangian.run_bed`)."""
     from ..numerics.bed_lagrangian import run_bed
     res = run_bed(s, progress=progress)
-    return (res,) + _flights_of(res, s)
-
-
-def _flights_of(res, s: BedSetup):
-    """(flights, flight per cycle [s], the last six finished flights [s]) of a continuum run."""
     flights = flights_from_force(res.t, res.floor_force, s.n_spheres * s.sphere_mass * s.gravity)
     tau = flight_per_cycle(flights, s.period, s.cycles)
-    return flights, tau, last_complete_flights(tau)
+    return res, flights, tau, last_complete_flights(tau)
 
 
 def _long_friction_run(setup: BedSetup) -> dict:
@@ -387,8 +383,10 @@ def _long_run_line(run: dict) -> str:
 
 
 def _bed_task(kind, setup, ref, tag, progress=None):
-    """One run of :func:`compare_bed`: ("ok", case, res, traj) for a comparison with the reference
-    run ``tag``, ("ok", run) for a long friction run; a stop raises SimulationError."""
+    """One run of :func:`compare_bed`: ("ok", case, run, traj) for a comparison with the reference
+    run ``tag`` (``run``: :func:`_continuum_flights`' tuple, so that the parent can compare it with
+    another reference without recomputing), ("ok", run) for a long friction run; a stop raises
+    SimulationError."""
     if kind == "long":
         return ("ok", _long_friction_run(setup))
     return ("ok",) + _compare_one(setup, ref, tag, progress)
@@ -463,16 +461,16 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
             if log:
                 log(_long_run_line(got[1]))
             return
-        _, case, res, traj = got
+        _, case, run, traj = got
         if dem is not None:
             case["dem"] = dem
         into.append(case)
         _log_case(case, dem)
         if into is cases:
-            runs[case["gamma"]] = (res, traj)
-            if include_extra and _reference_case(ref, setup.gamma, SPRING_DASHPOT)[0] is not None:
+            runs[case["gamma"]] = (run[0], traj)
+            if include_extra and (_run_dir(ref, setup.gamma, SPRING_DASHPOT) / "trajectory.csv").exists():
                 # the same continuum run against the frictionless spring-dashpot bed (same K and e)
-                other, _ = _case_against((res,) + _flights_of(res, setup), setup, ref, SPRING_DASHPOT)
+                other, _ = _case_against(run, setup, ref, SPRING_DASHPOT)
                 other["dem"] = SPRING_DASHPOT_RUNS
                 spring_dashpot.append(other)
                 _log_case(other, SPRING_DASHPOT_RUNS)

@@ -70,9 +70,13 @@ def worker_pool(workers: int):
         try:
             executor = concurrent.futures.ProcessPoolExecutor(
                 workers, mp_context=multiprocessing.get_context("spawn"), initializer=_ignore_sigint)
-            # start every worker now, while Ctrl-C is ignored here (the executor starts them lazily)
-            for fut in [executor.submit(int, 0) for _ in range(workers)]:
-                fut.result()
+            # start every worker now, while Ctrl-C is ignored here: with "spawn" the executor
+            # would start them one by one at the first submits (CPython's own start-up routine,
+            # the one it uses under "fork"; called before any submit, as it requires; a Python
+            # without it starts them at the submits, Ctrl-C then reaching their imports)
+            launch = getattr(executor, "_launch_processes", None)
+            if launch is not None:
+                launch()
         finally:
             if main_thread:
                 signal.signal(signal.SIGINT, old_int)
@@ -85,12 +89,15 @@ def worker_pool(workers: int):
         if executor is not None:
             procs = list((executor._processes or {}).values())
             if not finished:
-                executor.shutdown(wait=False, cancel_futures=True)
+                # end the running workers; the executor sees them gone, fails the runs left, and
+                # its shutdown(wait=True) joins its own thread, which reaps them (a shutdown with
+                # wait=False first would let that thread reap them while the loop below waits on
+                # the same processes: a child reaped twice looks alive for good)
                 for proc in procs:
                     if proc.is_alive():
                         proc.terminate()
-            executor.shutdown(wait=True)
-            for proc in procs:                  # reaped here: no process of the pool outlives it
+            executor.shutdown(wait=True, cancel_futures=not finished)
+            for proc in procs:                  # joined here: no process of the pool outlives it
                 proc.join(timeout=10.0)
                 if proc.is_alive():
                     proc.kill()
