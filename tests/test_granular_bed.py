@@ -150,6 +150,10 @@ def test_compare_bed_command_writes_the_schema(tmp_path, capsys):
     assert temp["cycle_mean_ratio"] == pytest.approx(np.mean(temp["continuum_theta_m2_s2"])
                                                      / np.mean(temp["dem_theta_m2_s2"]))
     assert min(temp["continuum_internal_energy_J"]) > 0 and min(temp["dem_internal_energy_J"]) > 0
+    # the DEM's anisotropy: θ = (θ_z + 2θ_h)/3, the floor feeds the vertical part (1.10 at Γ = 3)
+    assert temp["dem_theta_z_over_theta_cycle_mean"] == pytest.approx(np.mean(temp["dem_theta_z_m2_s2"])
+                                                                     / np.mean(temp["dem_theta_m2_s2"]))
+    assert 1.0 < temp["dem_theta_z_over_theta_cycle_mean"] < 1.5
     fly = temp["dem_loss_over_enskog_cs_in_flight"]          # from the committed reference only
     start, end = ((p - case["dem_takeoff_phase"]) % 1.0 for p in fly["phases"])   # in time order after take-off
     assert 0.0 < start < end < case["dem_landing_phase"] - case["dem_takeoff_phase"]

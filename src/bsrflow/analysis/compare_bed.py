@@ -244,6 +244,8 @@ def _temperature_against_phase(res, flights, ref: Path, s: BedSetup, tag: str):
            "dem_theta_z_m2_s2": np.asarray(dem["theta_z_m2_s2"], dtype=float).tolist(),
            "dem_theta_h_m2_s2": np.asarray(dem["theta_h_m2_s2"], dtype=float).tolist(),
            "cycle_mean_ratio": float(cont.mean() / dth.mean()),
+           # the DEM's anisotropy, which the continuum's isotropic θ leaves out
+           "dem_theta_z_over_theta_cycle_mean": float(np.mean(dem["theta_z_m2_s2"]) / dth.mean()),
            "continuum_internal_energy_J": energy.tolist(), "dem_internal_energy_J": col["E_internal_J"].tolist(),
            "dem_loss_W": col["loss_W"].tolist(), "dem_enskog_cs_loss_W": col["enskog_cs_loss_W"].tolist(),
            "note": "the bed's mass-mean theta against the floor phase (floor at A sin(2 pi phase)), mean over "
