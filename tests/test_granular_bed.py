@@ -651,8 +651,8 @@ def test_the_reference_beds_energy_budgets_at_gamma3(tag):
 
 def test_compare_bed_compares_each_main_run_with_the_spring_dashpot_bed_too(tmp_path):
     """With the extra runs (the default): each main case's continuum run is compared, as it is, with
-    the frictionless spring–dashpot LIGGGHTS bed at that Γ as well (``spring_dashpot_cases``); the
-    rest of the extra runs (e = 0.5, friction, the 30-cycle friction runs) end to end."""
+    the frictionless spring–dashpot LIGGGHTS bed at that Γ as well (``spring_dashpot_cases``), and at
+    Γ = 3 with the 10 000-sphere bed (``large_box_cases``); the rest of the extra runs (e = 0.5, friction, the 30-cycle friction runs) end to end."""
     out = tmp_path / "bed.json"
     assert main(["compare-bed", "--gammas", "3", "--cells", "24", "--json", str(out)]) == 0
     data = json.loads(out.read_text())
@@ -668,3 +668,9 @@ def test_compare_bed_compares_each_main_run_with_the_spring_dashpot_bed_too(tmp_
     assert data["period_doubling_gamma_friction_mu0.5"]["dem"] == 3.75
     assert "spring_dashpot_note" in data
     assert data["period_doubling_gamma_spring_dashpot"]["dem"] == 7.25     # params.json: 7.5 doubled, 7 single
+    # and with the reference's lateral-size run (N = 10 000, 29 d box; no velocities dumped there)
+    big = data["large_box_cases"]
+    assert [c["gamma"] for c in big] == [3.0] and "10 000" in big[0]["dem"] and "large_box_note" in data
+    assert big[0]["flight_time_s"] == main_case["flight_time_s"] and "temperature" not in big[0]
+    assert big[0]["dem_flight_time_s"] == pytest.approx(0.02693, abs=5e-5)    # its summary's last six flights
+    assert math.isfinite(big[0]["mass_centre_rms_over_d"])

@@ -18,7 +18,8 @@ the same measures as the reference's post-processing (``reference/liggghts_bed/r
 
 The exploratory e = 0.5 runs and the frictional runs (μ = 0.5, spring–dashpot, Γ = 3–4.5) are
 compared too, and each main case's continuum run also with the frictionless spring–dashpot bed
-at the same Γ (``spring_dashpot_cases``: the same K and e, another contact law).  The
+at the same Γ (``spring_dashpot_cases``: the same K and e, another contact law), and the Γ = 3
+run with the reference's lateral-size run (``large_box_cases``: N = 10 000 in a 29 d box).  The
 frictional runs twice: against the smooth continuum at Γ = 3 (the effect of friction, reported,
 not tuned away) and against the continuum with friction μ = 0.5, which
 enters only as the collisional losses' effective restitution e − (3/2)μ exp(−3μ) (Chialvo and
@@ -153,8 +154,11 @@ def _read_csv(path):
 
 
 def _run_dir(ref, gamma: float, tag: str = "") -> Path:
-    """The folder of the reference run at Γ = ``gamma`` (N = 2000, 13 d box; ``tag`` names the
-    variant: "", "_e0.5", "_hooke", "_hooke_mu0.5")."""
+    """The folder of the reference run at Γ = ``gamma``: the N = 2000, 13 d box runs, ``tag``
+    naming the variant ("", "_e0.5", "_hooke", "_hooke_mu0.5"), or :data:`LARGE_BOX` (the
+    N = 10 000, 29 d box run of the main law)."""
+    if tag == LARGE_BOX:
+        return Path(ref) / "results" / f"gamma_{gamma:.2f}_N10000_L29d"
     return Path(ref) / "results" / f"gamma_{gamma:.2f}_N2000_L13d{tag}"
 
 
@@ -422,6 +426,10 @@ def reference_bed(ref: Path, n_cells=200):
 SPRING_DASHPOT = "_hooke"
 """The reference runs' tag of the frictionless spring–dashpot bed (the same K and e)."""
 SPRING_DASHPOT_RUNS = "LIGGGHTS spring-dashpot, frictionless"
+LARGE_BOX = "N10000_L29d"
+"""The tag of the reference's lateral-size run: N = 10 000 spheres in a 29 d × 29 d box, the same
+depth per area, law and Γ = 3 (its own folder name, not a variant suffix)."""
+LARGE_BOX_RUNS = "LIGGGHTS Walton-Braun, N = 10 000 in a 29 d box"
 
 MODEL = ("packing stress + granular temperature (bsrflow.physics.granular_bed), horizontally uniform bed "
          "(1-D limit of the 3-D bed)")
@@ -438,7 +446,7 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
     ref = Path(reference)
     known, params, base = reference_bed(ref, n_cells)
     gammas = [float(g) for g in (known if gammas is None else gammas)]
-    cases, runs, extra, long_runs, spring_dashpot = [], {}, [], [], []
+    cases, runs, extra, long_runs, spring_dashpot, large_box = [], {}, [], [], [], []
     # (kind, setup, reference tag, list it joins, what the reference run is)
     tasks = [("case", base.with_(gamma=g), "", cases, None) for g in gammas]
     if include_extra:
@@ -476,6 +484,12 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                 other["dem"] = SPRING_DASHPOT_RUNS
                 spring_dashpot.append(other)
                 _log_case(other, SPRING_DASHPOT_RUNS)
+            if include_extra and (_run_dir(ref, setup.gamma, LARGE_BOX) / "trajectory.csv").exists():
+                # the same run against the reference's lateral-size check (the same bed per area)
+                other, _ = _case_against(run, setup, ref, LARGE_BOX)
+                other["dem"] = LARGE_BOX_RUNS
+                large_box.append(other)
+                _log_case(other, LARGE_BOX_RUNS)
 
     def _log_case(case, dem):
         if log:
@@ -497,7 +511,7 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                 finish(task, _bed_task(task[0], task[1], ref, task[2], progress))
     except (KeyboardInterrupt, SimulationError) as exc:
         exc.partial = {"model": MODEL, "fitted_constants": {}, "n_cells": n_cells, "cases": cases,
-                       "extra_cases": extra, "spring_dashpot_cases": spring_dashpot,
+                       "extra_cases": extra, "spring_dashpot_cases": spring_dashpot, "large_box_cases": large_box,
                        f"friction_{LONG_CYCLES}_cycles_runs": long_runs}
         raise
     g3 = next((c for c in cases if c["gamma"] == 3.0), None)
@@ -522,6 +536,11 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                                 "frictionless spring-dashpot bed (hooke/stiffness with a viscous dashpot for e, the same "
                                 "K and e as the main Walton-Braun runs; the issue's simpler alternative law) at every "
                                 "Gamma it was run; the main comparison stays the Walton-Braun one"),
+        "large_box_cases": large_box,
+        "large_box_note": ("the main cases' continuum runs against LIGGGHTS's lateral-size run (N = 10 000 in a "
+                           "29 d x 29 d box, the same spheres per area, law and settling; Gamma = 3): the horizontally "
+                           "uniform continuum is the same for both boxes, so the difference between the two references "
+                           "is the DEM's own box-size effect"),
         "period_doubling_gamma": {
             "continuum": _doubling_gamma([c["gamma"] for c in cases], [c["period_doubled"] for c in cases]),
             "dem": (params.get("period_doubling_gamma") or {}).get("estimate"),
@@ -556,7 +575,7 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
     }
     if not include_extra:
         for key in ("period_doubling_gamma_friction_mu0.5", "spring_dashpot_cases", "spring_dashpot_note",
-                    "period_doubling_gamma_spring_dashpot"):
+                    "period_doubling_gamma_spring_dashpot", "large_box_cases", "large_box_note"):
             del out[key]
     if figures:
         _figures(out, runs, base, Path(figures), ref)
@@ -663,6 +682,10 @@ def _figures(out, runs, base, folder, ref=REFERENCE):
     if sd:
         ax.plot([c["gamma"] for c in sd], [1e3 * c.get("dem_flight_time_s", np.nan) for c in sd], "d:", color="C2",
                 label="LIGGGHTS spring-dashpot, e = 0.9")
+    big = out.get("large_box_cases") or []
+    if big:
+        ax.plot([c["gamma"] for c in big], [1e3 * c.get("dem_flight_time_s", np.nan) for c in big], "*", color="C1",
+                ms=10, label="LIGGGHTS Walton–Braun, N = 10 000 (29 d box)")
     e05 = [c for c in out["extra_cases"] if c["restitution"] == 0.5]
     if e05:
         ax.plot([c["gamma"] for c in e05], [1e3 * c["flight_time_s"] for c in e05], "^-", label="continuum, e = 0.5")
@@ -820,7 +843,7 @@ def _finish_profile_figure(fig, first_panel, title, path, plt):
 def format_table(out) -> str:
     rows = ["| Γ | flight continuum [ms] | flight LIGGGHTS [ms] | difference | mass-centre RMS [d] | period doubled "
             "(continuum / LIGGGHTS) |", "|---|---|---|---|---|---|"]
-    for c in out["cases"] + out["extra_cases"] + out.get("spring_dashpot_cases", []):
+    for c in out["cases"] + out["extra_cases"] + out.get("spring_dashpot_cases", []) + out.get("large_box_cases", []):
         name = f"{c['gamma']:g}" + ("" if "dem" not in c else f" ({c['dem']})")
         rows.append(f"| {name} | {1e3 * c['flight_time_s']:.1f} | {1e3 * c.get('dem_flight_time_s', float('nan')):.1f} | "
                     f"{100 * c.get('flight_time_rel_diff', float('nan')):+.1f} % | "
@@ -840,7 +863,7 @@ def add_parser(sub):
                    help="only these Γ of the main runs (default: every Γ of the LIGGGHTS runs, 1.5 to 8)")
     p.add_argument("--cells", type=int, default=200, metavar="N", help="Lagrangian cells over the bed (default 200)")
     p.add_argument("--no-extra", action="store_true",
-                   help="skip the e = 0.5, friction and spring-dashpot comparisons")
+                   help="skip the e = 0.5, friction, spring-dashpot and 10 000-sphere comparisons")
     p.add_argument("--workers", type=int, default=1, metavar="N",
                    help="run the continuum's runs on N processes (default 1; at most 4 per CPU); the same numbers, "
                         "the wall times then those of a shared machine")
