@@ -465,7 +465,7 @@ LAYER_TOML = '[layer]\nkind = "tapped_layer"\ndim = 2\nt_end = 0.02\nsave_every 
     (["run", "{layer}", "--set", "gravity=1e300"], 2, "gravity = 1e+300 is outside the valid range [0.001, 10000]"),
     (["sweep", "{seed}", "--param", "e=0.3,0.9", "--out", "{tmp}/s.nc"], 2, "--param restitution: the seed kernel"),
     (["compare", "--diameter", "1e-6"], 2, "the DEM would take 4.79e+12 steps"),
-    (["compare", "--diameter", "5"], 3, "the DEM column (d = 5 m, a/d = 0.75) stopped: an overlap reached"),
+    (["compare", "--diameter", "5"], 2, "--diameter: d = 5 m is outside the valid range [1e-06, 0.701] m"),
     (["compare", "--scheme", "foo"], 2, "error: --scheme 'foo' is not one of"),
     (["compare-bed", "--reference", "{tmp}/ref", "--json", "{tmp}/ref/params.json"], 2, "is inside --reference"),
 ])

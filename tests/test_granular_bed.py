@@ -176,6 +176,7 @@ def test_compare_bed_command_writes_the_schema(tmp_path, capsys):
 @pytest.mark.parametrize("argv, text", [(["--gammas", "3.3"], "--gammas 3.3"), (["--cells", "2"], "--cells 2"),
                                         (["--workers", "0"], "--workers 0 is outside the valid range [1, "),
                                         (["--cells", "5000"], "--cells 5000"), (["--gammas", "3", "3"], "twice"),
+                                        (["--gammas", "3", "3.0000000001"], "twice"),
                                         (["--reference", "/nonexistent"], "--reference"),
                                         (["--reference", "EMPTY_PARAMS"], "--reference")])
 def test_compare_bed_bad_input_exits_2(argv, text, capsys, tmp_path):

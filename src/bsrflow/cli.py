@@ -79,6 +79,24 @@ def _given_twice(parser, argv) -> str | None:
     return None
 
 
+def _empty_value(parser, args) -> str | None:
+    """The first option or argument of the chosen command given as an empty (or blank) string:
+    no command takes one (an empty path was silently taken as "not given", or named nothing)."""
+    sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
+    if sub is None or args.command not in sub.choices:
+        return None
+    for action in sub.choices[args.command]._actions:
+        if isinstance(action, argparse._HelpAction) or action.dest in (argparse.SUPPRESS, None):
+            continue
+        value = getattr(args, action.dest, None)
+        if value is action.default:
+            continue
+        values = value if isinstance(value, list) else [value]
+        if any(isinstance(v, str) and not v.strip() for v in values):
+            return action.option_strings[0] if action.option_strings else (action.metavar or action.dest)
+    return None
+
+
 def main(argv=None) -> int:
     from .io.commands import _sigterm_as_interrupt
     # SIGTERM ends every command as Ctrl-C does (one line, exit 143 / 130), from before the
@@ -107,6 +125,11 @@ def _main(argv) -> int:
     twice = _given_twice(parser, argv)
     if twice:
         print(f"bsrflow {args.command}: error: {twice} is given twice; give it once", file=sys.stderr)
+        return 2
+    empty = _empty_value(parser, args)
+    if empty:
+        hint = "give a value or leave the option out" if empty.startswith("-") else "give a value"
+        print(f"bsrflow {args.command}: error: {empty} is empty; {hint}", file=sys.stderr)
         return 2
     from .numerics.solver import SimulationError
     try:

@@ -372,6 +372,26 @@ def _setup_from_options(**kw) -> ColumnSetup:
         raise
 
 
+DEM_MAX_IMPACT_OVERLAP = 0.25
+"""The DEM column's spheres, meeting the floor at its largest speed in the cases (a ω with the
+largest a/d of :data:`CASES`), may overlap it by at most this fraction of d (a sphere's binary
+impact, δ = v √(m/K)); the DEM stops at d/2.  At the default K, ρ and f this allows d ≤ 0.70 m
+(d = 0.6 m runs, 2.3 m stopped at its first tap; 2026-12-04)."""
+
+
+def _check_dem_overlap(s: ColumnSetup, option: str) -> None:
+    """Refuse, before any run, a column whose DEM spheres would overlap the floor by more than
+    :data:`DEM_MAX_IMPACT_OVERLAP` d at the taps' largest floor speed, naming the diameter range at
+    the other settings (the overlap over d grows as d^1.5)."""
+    speed = max(c["a_over_d"] for c in CASES) * s.diameter * 2.0 * math.pi * s.frequency
+    ratio = speed * math.sqrt(s.particle_mass / s.stiffness) / s.diameter
+    if ratio > DEM_MAX_IMPACT_OVERLAP:
+        d_max = s.diameter * (DEM_MAX_IMPACT_OVERLAP / ratio) ** (2.0 / 3.0)
+        raise ValueError(f"{option}: d = {s.diameter:g} m is outside the valid range [1e-06, {d_max:.3g}] m at these "
+                         f"settings: a DEM sphere meeting the floor at the taps' speed ({speed:.3g} m/s) would overlap "
+                         f"it by {ratio:.2g} d (at most {DEM_MAX_IMPACT_OVERLAP:g} d at K = {s.stiffness:g} N/m)")
+
+
 def _log(msg) -> None:
     """Print a progress line of `bsrflow compare` / `demo`, then raise a Ctrl-C or SIGTERM that
     numba swallowed while it compiled (:func:`bsrflow.io.commands._raise_pending`)."""
@@ -396,6 +416,7 @@ def _main(args) -> int:
     if args.ppd is not None:
         kw["points_per_diameter"] = args.ppd
     base = _setup_from_options(**kw)
+    _check_dem_overlap(base, "--diameter" if args.diameter is not None else "the column")
     from ..numerics.solver import Scheme
     try:
         Scheme.preset(args.scheme)                 # an unknown preset is refused before the DEM runs

@@ -894,11 +894,15 @@ def _main(args) -> int:
     if not (4 <= args.cells <= 1000):
         raise ValueError(f"--cells {args.cells} is outside the valid range [4, 1000]")
     if args.gammas:
-        if len(set(args.gammas)) < len(args.gammas):
-            raise ValueError(f"--gammas: a value is given twice ({' '.join(f'{g:g}' for g in args.gammas)})")
+        snapped = []
         for g in args.gammas:
-            if not any(abs(g - k) < 1e-9 for k in known):
+            match = [k for k in known if abs(g - k) < 1e-9]
+            if not match:
                 raise ValueError(f"--gammas {g:g} is not one of the LIGGGHTS runs' Γ: {', '.join(f'{k:g}' for k in known)}")
+            snapped.append(match[0])
+        if len(set(snapped)) < len(snapped):
+            raise ValueError(f"--gammas: a value is given twice ({' '.join(f'{g:g}' for g in args.gammas)})")
+        args.gammas = snapped
     max_workers = 4 * (os.cpu_count() or 1)
     if not 1 <= args.workers <= max_workers:
         raise ValueError(f"--workers {args.workers} is outside the valid range [1, {max_workers}] (4 per CPU of this "

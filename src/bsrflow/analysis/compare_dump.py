@@ -216,6 +216,15 @@ _SETUP_OPTIONS = [
 ]
 
 
+def _config_key(field: str) -> str:
+    """The config's dotted key of a ColumnSetup field (``m0`` -> ``column.m0``), or the field."""
+    from ..io.config import Config, ConfigError
+    try:
+        return Config.resolve_key(field)
+    except ConfigError:
+        return field
+
+
 def add_parser(sub):
     helptext = "BSR against a LAMMPS/LIGGGHTS dump of the tapped column (metrics and figures of 'compare')"
     p = sub.add_parser("compare-dump", help=helptext, description=helptext)
@@ -266,8 +275,9 @@ def _main(args) -> int:
     for opt, v, unit in (("--floor-offset", args.floor_offset, "m"), ("--time-offset", args.time_offset, "s")):
         if not math.isfinite(v):
             raise ValueError(f"{opt} {v!r} is outside the valid range: finite values [{unit}]")
-    if args.name is not None and (not args.name.strip() or os.sep in args.name):
-        raise ValueError(f"--name {args.name!r}: need a non-empty name without {os.sep!r}")
+    if args.name is not None and (not args.name.strip() or os.sep in args.name or args.name.startswith(".")):
+        raise ValueError(f"--name {args.name!r}: need a non-empty name without {os.sep!r}, not starting with '.' "
+                         "(it starts the figure file names)")
     dump = read_dump(args.dump, axis=args.axis)
     if dump.t is not None and args.dt is not None:
         bad = time_mismatch(dump.timestep, dump.t, args.dt)
@@ -278,6 +288,10 @@ def _main(args) -> int:
         if args.dt is None:
             raise ValueError(f"{args.dump}: the dump has no ITEM: TIME blocks; give the time step with --dt SECONDS")
         dump = dataclasses.replace(dump, t=dump.timestep * float(args.dt))
+        span = float(dump.t[-1] - dump.t[0]) if len(dump.t) else 0.0
+        if not (math.isfinite(span) and span <= 1e5):
+            raise ValueError(f"--dt {args.dt!r} is outside the valid range at this dump: the dump's last time step "
+                             f"{int(dump.timestep[-1])} times --dt must stay within 1e5 s (the run's t_end range)")
     if args.types:
         dump = dump.select(args.types)
     check_dump(dump, args.axis, args.time_offset, what_axis="--axis")
@@ -317,10 +331,17 @@ def _main(args) -> int:
                "scheme options: leave it out") if seed_given else ""
     try:
         setup, scheme = source.setup_and_scheme(overrides)
-    except ValueError as exc:    # the config refuses the seed's options with the packing kernel: name the option
-        if seed_given and str(exc).startswith(("column.m0:", "column.kernel_dissipation:", "numerics.scheme:",
-                                               "numerics.stepper:", "numerics.rtol:", "numerics.atol:")):
+    except ValueError as exc:
+        msg = str(exc)
+        # the config refuses the seed's options with the packing kernel: name the option
+        if seed_given and "packing" in msg and msg.startswith((
+                "column.m0:", "column.kernel_dissipation:", "numerics.scheme:", "numerics.stepper:",
+                "numerics.rtol:", "numerics.atol:")):
             raise ValueError(refusal) from None
+        # a value of this command line out of its range: name the option it came from
+        for opt, fld, _t, _h in _SETUP_OPTIONS:
+            if getattr(args, fld) is not None and msg.startswith(_config_key(fld) + ":"):
+                raise ValueError(f"{opt}: {msg.partition(':')[2].strip()}") from None
         raise
     if setup.kernel_name == "packing" and seed_given:        # e.g. --scheme seed, which the config allows
         raise ValueError(refusal)

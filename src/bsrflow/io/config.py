@@ -198,7 +198,7 @@ FIELDS: tuple[_Field, ...] = (
            "kernel's: 0.25 eulerian, 0.4 eulerian with range_over_d = 0, 0.5 lagrangian, 0.25 lagrangian with "
            "restitution 1); "
            "at most the chosen stepper's stability limit (packing: 0.5 eulerian, 0.9 lagrangian, 0.25 "
-           "lagrangian with restitution 1)", "", 0, 4, lo_open=True),
+           "lagrangian with restitution 1); at least 0.001 (a smaller one only multiplies the steps)", "", 1e-3, 4),
     _Field("numerics", "stepper", "str", None, "Runge-Kutta stepper override (default: the "
            "preset's)", choices=_STEPPERS),
     _Field("numerics", "rtol", "float", None, "relative tolerance for adaptive time stepping "
@@ -296,7 +296,8 @@ def _check_type(f: _Field, v):
     if f.kind == "int":
         if isinstance(v, int) and not isinstance(v, bool):
             return v
-        hint = f" (write {int(v)})" if isinstance(v, float) and math.isfinite(v) and v == int(v) else ""
+        hint = (f" (write {int(v)})" if isinstance(v, float) and math.isfinite(v) and v == int(v)
+                and f.in_range(int(v)) else "")
         raise ConfigError(f.name, f"expected an integer, got {_describe(v)}{hint}; valid range "
                           f"{f.range_text()}", v, f.range_text())
     if f.kind == "float":
@@ -548,7 +549,7 @@ class Config:
         cfl = v["numerics.cfl"] if v["numerics.cfl"] is not None else preset.cfl
         if cfl > limit:
             f = _BY_NAME["numerics.cfl"]
-            rng = f"(0, {limit:g}]"
+            rng = f"[0.001, {limit:g}]"
             where = "numerics.cfl" if v["numerics.cfl"] is not None else "numerics.stepper"
             raise ConfigError(where, f"CFL {cfl!r} is above the stability limit {limit:g} of "
                               f"{stepper}{' + moving average' if filt else ''}; valid range {rng}",
@@ -790,7 +791,7 @@ class Config:
                 elif f.name == "run.checkpoint_every":
                     rng = "0 (off) or (0, t_end] s"
                 elif f.name == "numerics.cfl":
-                    rng = ("(0, limit]: euler 0.7071, heun 1.5289, kutta3/bs32 2.3388, rk4 3.1010 with "
+                    rng = ("[0.001, limit]: euler 0.7071, heun 1.5289, kutta3/bs32 2.3388, rk4 3.1010 with "
                            "the moving average (seed); kutta3/bs32 1.7321, rk4/rk4_0.4_0.25 2.8284 without (accurate)")
                 lines.append(f"# {f.doc}{unit}; valid: {rng}")
                 val = self._values[f.name]

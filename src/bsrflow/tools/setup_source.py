@@ -221,8 +221,12 @@ class SetupSource:
             cfg = default()
             return cls(config=cfg, text=cfg.to_toml() if hasattr(cfg, "to_toml") else "")
         path = os.fspath(path)
+        if not path:
+            raise ValueError("the configuration file name is empty; give a TOML file")
         if not os.path.exists(path):
             raise FileNotFoundError(f"{path}: no such configuration file")
+        if os.path.isdir(path):
+            raise ValueError(f"{path}: is a directory, not a configuration file")
         with open(path, "rb") as fh:
             raw = fh.read()
         text = raw.decode("utf-8", errors="replace")

@@ -536,6 +536,11 @@ def _main(args) -> int:
         if source.column_setup({}).kernel_name == "seed":
             raise ValueError("--param restitution: the seed kernel's continuum does not use it (its dissipation is "
                              "kernel_dissipation; e is the DEM's and the packing law's): sweep kernel_dissipation")
+    set_restitution = next((k for k in fixed if canonical_name(k) == "restitution"), None)
+    if set_restitution is not None and not swept & {"kernel", "kernel_name"}:
+        if source.column_setup({}).kernel_name == "seed":
+            raise ValueError(f"--set {set_restitution}: the seed kernel's continuum does not use it (its dissipation "
+                             "is kernel_dissipation; e is the DEM's and the packing law's): leave it out")
     if args.scheduler:
         check_scheduler(args.scheduler)
     where = args.scheduler or f"a LocalCluster of {workers} worker processes"
