@@ -450,6 +450,27 @@ def test_a_signal_during_numbas_compile_is_sent_again_not_swallowed(where):
     assert signal.getsignal(signal.SIGTERM) is before     # the handler is restored
 
 
+def test_a_second_signal_inside_the_handlers_lock_still_interrupts():
+    """A signal that arrives while the handler's lock is held in the main thread (the handler of a
+    first signal, as GNU ``timeout`` sends two) runs the handler again there: it must raise, not
+    wait for the lock (a sweep hung so).  In a subprocess, so that a regression fails instead of
+    hanging the suite."""
+    import subprocess
+    import sys
+
+    code = ("import os, signal, time\n"
+            "from bsrflow.io import commands\n"
+            "try:\n"
+            "    with commands._sigterm_as_interrupt():\n"
+            "        with commands._RESEND['lock']:\n"
+            "            os.kill(os.getpid(), signal.SIGTERM)\n"
+            "            time.sleep(5)\n"
+            "except commands._Terminated:\n"
+            "    print('interrupted')\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert out.stdout.strip() == "interrupted", out.stderr
+
+
 SEED_TOML = "[run]\nt_end = 0.02\nsave_every = 0.01\n"
 PACKING_TOML = '[model]\nkernel = "packing"\n' + SEED_TOML
 LAYER_TOML = '[layer]\nkind = "tapped_layer"\ndim = 2\nt_end = 0.02\nsave_every = 0.01\n'

@@ -76,7 +76,11 @@ is swallowed there (Python prints "Exception ignored ..." with a traceback and g
 again 0.25 s later (:func:`_resend_later`) until it arrives in ordinary Python code, where it
 raises.  :func:`_raise_pending` raises a recorded one at a command's progress call."""
 
-_RESEND = {"timer": None, "resent": False, "raised": False, "lock": threading.Lock()}
+_RESEND = {"timer": None, "resent": False, "raised": False, "lock": threading.RLock()}
+"""The lock is reentrant: a second signal can run the handler again in the main thread while the
+first still holds it (GNU ``timeout`` sends SIGTERM to the command and then to its process group,
+so the command gets two at once); with a plain lock the inner handler waited for good (a sweep
+hung so, 2026-12-04)."""
 RESEND_DELAY_S = 0.25
 
 
