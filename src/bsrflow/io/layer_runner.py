@@ -34,8 +34,16 @@ stages with the mass-weighted interpolation of :func:`bsrflow.numerics.packing_n
 and written as ``tracer_x`` (``tracer_y``), ``tracer_z`` (lab frame) to the netCDF file;
 checkpoints carry them.
 
-Every key is checked before the run: an unknown table or key, or a value outside its range,
-is one line ``layer.<key>: <problem>`` (exit code 2).  A checkpoint ``<out>.ckpt`` holds the
+Every key is checked before the run: an unknown table or key, a value of the wrong type or
+outside its range, is one line ``layer.<key>: <problem>`` with the key's valid range (exit code
+2).  The size of the grid (at most :data:`MAX_LAYER_CELLS` cells; a ``tapped_layer`` /
+``vibrated_box`` resting layer at most :data:`MAX_RESTING_CELLS` cells tall) is computed in
+Python numbers before anything is allocated, and a setting that only fails together with others
+(the grid's size, a packing bed's stiffness check: its weight's overlap and its number of time
+steps, the cells of the box for a diameter) names the field the config gives, with its valid
+range at these settings.  ``domain_height`` not given is the energy bound; 0 is refused, as any
+height below that bound.  ``settle_time`` is at most :data:`MAX_SETTLE_TIME`; one at or after
+``t_end`` makes a run that only settles (a note when the config gives it).  A checkpoint ``<out>.ckpt`` holds the
 state before the jump and the save at its time (the 1-D format, :mod:`bsrflow.io.checkpoint`,
 with the n-D arrays), removed when the run finishes; ``--resume`` with the same config
 continues bit for bit.
@@ -43,6 +51,7 @@ continues bit for bit.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 import os
@@ -155,33 +164,50 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
     kw = {}
     if kind == "granular_bed":
         kw["save_every"] = GRANULAR_BED_SAVE_EVERY      # a config run's default (compare-bed saves every 0.1 ms)
+    ranges = _RANGES[kind]
     for key, value in layer.items():
         if key not in names:
             raise ConfigError(f"layer.{key}", f"unknown key for kind = {kind!r}; valid: {', '.join(sorted(names))}")
-        _check_type(f"layer.{key}", value, str(names[key].type))
+        _check_type(f"layer.{key}", value, str(names[key].type), ranges[key])
         kw[key] = value
+    given = frozenset(layer)
+    _check_layer_bounds(kind, kw)
     try:
         setup = cls(**kw)
     except (ValueError, TypeError) as exc:
         msg = str(exc).splitlines()[0]
+        if kind != "granular_bed":       # a grid too large, or a bound of the field the user set
+            raw = _unchecked_setup(cls, kw)
+            problem = _size_problem(kind, raw, given) or _reblamed(kind, raw, given, msg)
+            if problem:
+                raise ConfigError(*problem) from None
         field = next((k for k in kw if msg.startswith(k)), None)
         raise ConfigError(f"layer.{field}" if field else "layer", msg) from None
+    if kind in ("tapped_layer", "vibrated_box") and setup.domain_height == 0:   # (the class takes 0 as not given)
+        raise ConfigError("layer.domain_height", f"domain_height = {setup.domain_height!r} m is outside the valid "
+                          f"range [{setup.energy_bound_height():.4g}, inf) m (energy bound; not given: the energy "
+                          "bound)")
     height = setup.domain_height or setup.energy_bound_height()
     if not math.isfinite(height):
         drive = "amplitude" if kind in ("tapped_layer", "vibrated_box") else "gamma"
         raise ConfigError(f"layer.{drive}", f"{kw.get(drive, getattr(setup, drive))!r} gives the floor a largest speed "
                           f"of {setup.floor_speed():.3g} m/s and an unbounded domain (the energy bound (3aω)²/(2g)); "
                           f"valid: a finite floor speed, at most {MAX_LAYER_CELLS:.0e} cells in the grid")
+    problem = None if kind == "granular_bed" else _size_problem(kind, setup, given)
+    if problem:                          # before the grid is made (Python floats: no overflow)
+        raise ConfigError(*problem)
     try:
-        cells = int(np.prod(setup.grid().shape))
+        cells = math.prod(setup.grid().shape)       # Python ints: exact (no int64 overflow)
     except (ValueError, TypeError, OverflowError) as exc:
         msg = str(exc).splitlines()[0]
         field = next((k for k in names if msg.startswith(f"{k} = ")), None)
+        if msg.startswith("shape = ") and kind == "packing_bed" and {"box_width", "diameter"} & given:
+            raise ConfigError(*_narrow_box_problem(setup, given)) from None
         raise ConfigError(f"layer.{field}" if field else "layer", msg) from None
-    if cells > MAX_LAYER_CELLS:
-        raise ConfigError("layer", f"the grid would have {cells:.3g} cells; at most {MAX_LAYER_CELLS:.0e} (reduce the "
-                          "box, the heights, the cells per diameter or the floor's speed, which sets the domain height "
-                          "by the energy bound)")
+    if cells > MAX_LAYER_CELLS:          # (the checks above refuse it first, naming a field)
+        raise ConfigError("layer", f"the grid would have {_count_text(cells)} cells; at most {MAX_LAYER_CELLS:.0e} "
+                          "(reduce the box, the heights, the cells per diameter or the floor's speed, which sets the "
+                          "domain height by the energy bound)")
     out = dict(data.get("output", {}))
     for key, value in out.items():
         if key not in _OUTPUT_KEYS:
@@ -286,21 +312,531 @@ MAX_LAYER_CELLS = 1e7
 stay within a 24-GB machine."""
 
 
-def _check_type(name, value, annotation):
-    """One line naming ``name`` unless ``value`` has the field's TOML type (``annotation`` as the
-    dataclass gives it: "int", "float", "float | None", "bool", "str")."""
+MAX_SETTLE_TIME = 1e5
+"""The longest ``settle_time`` [s] a layer config accepts (the column's ``tap.start`` range).  A
+settle time at or after ``t_end`` is not refused: the run then only settles (a note says so when
+the config gives it), as a short run of the defaults does."""
+
+MAX_RESTING_CELLS = 10_000
+"""The tallest resting layer of ``tapped_layer`` / ``vibrated_box`` [cells, at the crests of the
+surface undulation]: its rest state is a dense linear solve of that size (10 000 cells: a 0.8-GB
+matrix; :func:`bsrflow.physics.scenarios_nd.resting_profile`)."""
+
+
+@dataclass(frozen=True)
+class _Range:
+    """A numeric field's valid range (its one-line errors)."""
+    lo: float
+    hi: float = math.inf
+    unit: str = ""
+    lo_open: bool = False
+    hi_open: bool = False
+    integer: bool = False
+    note: str = ""
+
+
+def _g(x) -> str:
+    return "inf" if x == math.inf else f"{x:g}"
+
+
+def _range_text(spec, lo: str | None = None, hi: str | None = None, note: bool = True) -> str:
+    """``spec`` (a :class:`_Range` or the text of a non-numeric field's range) as text; ``lo``,
+    ``hi``: bounds at these settings (closed), formatted, in place of the static ones."""
+    if isinstance(spec, str):
+        return spec
+    lo_s = _g(spec.lo) if lo is None else lo
+    hi_s = _g(spec.hi) if hi is None else hi
+    if spec.integer:
+        text = f"integers >= {lo_s}" if hi_s == "inf" else f"integers in [{lo_s}, {hi_s}]"
+    else:
+        left = "(" if lo is None and spec.lo_open else "["
+        right = ")" if hi is None and (spec.hi_open or spec.hi == math.inf) else "]"
+        text = f"{left}{lo_s}, {hi_s}{right}" + (f" {spec.unit}" if spec.unit else "")
+    return text + (f" {spec.note}" if note and spec.note else "")
+
+
+_INF = math.inf
+_HEIGHT_NOTE = "(or not given: the energy bound)"
+_LAYER_RANGES = {
+    "dim": "{2, 3}",
+    "box_width": _Range(0, _INF, "m", lo_open=True, note="(whole cells of Δx = diameter / cells_per_diameter, at "
+                        "least cells_per_diameter + 1 of them; at most 1e+07 cells in the grid)"),
+    "layer_height": _Range(0, _INF, "m", lo_open=True, note="(at least cells_per_diameter + 1 cells, at most "
+                           f"{MAX_RESTING_CELLS})"),
+    "diameter": _Range(0, _INF, "m", lo_open=True),
+    "cells_per_diameter": _Range(2, _INF, integer=True),
+    "bottom_density": _Range(1e-6, 1e6, "kg/m^n"),
+    "dissipation": _Range(0, 1, hi_open=True),
+    "gravity": _Range(1e-3, 1e4, "m/s^2"),
+    "sides": "'wall' or 'periodic'",
+    "surface_perturbation": _Range(0, 0.5),
+    "settle_time": _Range(0, MAX_SETTLE_TIME, "s"),
+    "t_end": _Range(0, _INF, "s", lo_open=True),
+    "save_every": "(0, t_end] s",
+    "scheme": "'seed'",
+    "average": "'na' or 'tensor'",
+    "domain_height": f"[energy bound, inf) m {_HEIGHT_NOTE}",
+    "positivity": "true or false",
+    "amplitude": _Range(0, _INF, "m"),
+    "frequency": _Range(1e-3, 1e4, "Hz"),
+}
+_RANGES = {
+    "tapped_layer": {**_LAYER_RANGES, "n_taps": _Range(1, _INF, integer=True),
+                     "tap_period": _Range(0, _INF, "s", lo_open=True,
+                                          note="(at least 1/(2 frequency) with n_taps > 1)")},
+    "vibrated_box": dict(_LAYER_RANGES),
+    "packing_bed": {
+        "dim": "{2, 3}",
+        "box_width": _Range(0, _INF, "m", lo_open=True, note="(whole cells of Δx = diameter / cells_per_diameter, at "
+                            "least 3 of them; at most 1e+07 cells in the grid)"),
+        "bed_height": _Range(0, _INF, "m", lo_open=True, note="(at least two cells)"),
+        "diameter": _Range(0, _INF, "m", lo_open=True),
+        "density": _Range(0, 1e5, "kg/m^3", lo_open=True),
+        "stiffness": _Range(0, _INF, "N/m", lo_open=True, note="(narrowed at these settings by the bed's weight and "
+                            "the number of time steps)"),
+        "restitution": _Range(0.01, 1),
+        "phi_c": _Range(0, 0.75, lo_open=True, hi_open=True),
+        "coordination": _Range(0, 12, lo_open=True),
+        "cells_per_diameter": _Range(1, _INF, integer=True),
+        "frequency": _Range(1e-3, 1e4, "Hz"),
+        "gamma": _Range(0, _INF),
+        "settle_time": _Range(0, MAX_SETTLE_TIME, "s"),
+        "t_end": _Range(0, _INF, "s", lo_open=True),
+        "save_every": "(0, t_end] s",
+        "stiffness_factor": _Range(0, 1, lo_open=True),
+        "surface_perturbation": _Range(0, 0.5),
+        "cfl": "(0, 0.5/dim] (or not given: 0.4/dim)",
+        "gravity": _Range(0, _INF, "m/s^2", lo_open=True),
+        "domain_height": f"[energy bound, inf) m {_HEIGHT_NOTE}",
+    },
+    "granular_bed": {
+        "n_spheres": _Range(1, 1e7, integer=True),
+        "diameter": _Range(0, 1, "m", lo_open=True),
+        "density": _Range(0, 1e5, "kg/m^3", lo_open=True),
+        "stiffness": _Range(0, 1e12, "N/m", lo_open=True),
+        "restitution": _Range(0, 1, lo_open=True, hi_open=True),
+        "friction": _Range(0, 1),
+        "side": _Range(0, 100, "m", lo_open=True),
+        "phi_c": _Range(0, 0.74, lo_open=True, hi_open=True),
+        "coordination": _Range(0, 12, lo_open=True),
+        "gravity": _Range(0, 1e3, "m/s^2", lo_open=True),
+        "frequency": _Range(0, 1e4, "Hz", lo_open=True),
+        "gamma": _Range(0, 20),
+        "cycles": _Range(1, 1e7, integer=True),
+        "settle": _Range(0, 10, "s"),
+        "n_cells": _Range(4, 1e7, integer=True),
+        "cfl": _Range(0, 0.5, lo_open=True),
+        "theta_seed": _Range(0, 1, "m^2/s^2"),
+        "save_every": _Range(0, 1, "s", lo_open=True),
+        "output_height": _Range(0, 100, "m", lo_open=True,
+                                note="(or not given: the rest height + (3aω)²/(2g) + 10 d)"),
+    },
+}
+"""Each kind's fields' valid ranges, as its one-line errors state them (the scenario classes check
+them; those that depend on other fields are narrowed there)."""
+
+
+def _check_type(name, value, annotation, valid):
+    """One line naming ``name`` and its valid range ``valid`` (:func:`_range_text`) unless
+    ``value`` has the field's TOML type (``annotation`` as the dataclass gives it: "int", "float",
+    "float | None", "bool", "str")."""
+    rng = _range_text(valid)
     if annotation.startswith("int"):
         if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(name, f"{value!r} must be an integer")
+            raise ConfigError(name, f"{value!r} must be an integer; valid range: {rng}")
     elif annotation.startswith("float"):
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise ConfigError(name, f"{value!r} must be a finite number")
+            raise ConfigError(name, f"{value!r} must be a finite number; valid range: {rng}")
     elif annotation.startswith("bool"):
         if not isinstance(value, bool):
             raise ConfigError(name, f"{value!r} must be true or false")
     elif annotation.startswith("str"):
         if not isinstance(value, str):
-            raise ConfigError(name, f"{value!r} must be a string")
+            raise ConfigError(name, f"{value!r} must be a string; valid: {rng}")
+
+
+def _check_layer_bounds(kind: str, kw: dict) -> None:
+    """The bounds of a layer config that its scenario class does not set (one line naming the
+    field): ``settle_time`` at most :data:`MAX_SETTLE_TIME`; a single tap's ``tap_period`` > 0
+    (the taps' motion refuses it, naming its own parameter)."""
+    st = kw.get("settle_time")
+    if st is not None and kind != "granular_bed" and not 0.0 <= st <= MAX_SETTLE_TIME:
+        raise ConfigError("layer.settle_time", f"{st!r} is outside the valid range "
+                          f"{_range_text(_RANGES[kind]['settle_time'])} (the floor rests until then)")
+    tp = kw.get("tap_period")
+    if kind == "tapped_layer" and tp is not None and kw.get("n_taps", 1) == 1 and not tp > 0.0:
+        raise ConfigError("layer.tap_period", f"{tp!r} is outside the valid range "
+                          f"{_range_text(_RANGES[kind]['tap_period'])}")
+
+
+def _unchecked_setup(cls, kw: dict):
+    """An instance of the scenario class ``cls`` with the fields ``kw`` (defaults for the others)
+    that is not checked (``__post_init__`` not run): what the grid checks compute with when the
+    class refuses the fields."""
+    obj = cls.__new__(cls)
+    for f in dataclasses.fields(cls):
+        value = kw[f.name] if f.name in kw else f.default
+        if value is dataclasses.MISSING:
+            value = f.default_factory() if f.default_factory is not dataclasses.MISSING else None
+        object.__setattr__(obj, f.name, value)
+    return obj
+
+
+def _with(setup, name: str, value):
+    """A copy of the (unchecked) ``setup`` with one field changed."""
+    other = copy.copy(setup)
+    object.__setattr__(other, name, value)
+    return other
+
+
+def _finite(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _height_field(kind: str) -> str:
+    return "bed_height" if kind == "packing_bed" else "layer_height"
+
+
+def _size_inputs_ok(kind: str, s) -> bool:
+    """True when the fields that set the grid of the layer ``s`` are each in their range (so its
+    size can be computed; the scenario class names any other problem)."""
+    from ..physics.motion import FREQUENCY_RANGE
+    drive = "gamma" if kind == "packing_bed" else "amplitude"
+    c = s.cells_per_diameter
+    return (s.dim in (2, 3) and not isinstance(s.dim, bool)
+            and isinstance(c, int) and not isinstance(c, bool) and c >= (1 if kind == "packing_bed" else 2)
+            and all(_finite(getattr(s, k)) and getattr(s, k) > 0
+                    for k in ("box_width", "diameter", _height_field(kind), "gravity"))
+            and _finite(s.surface_perturbation) and 0.0 <= s.surface_perturbation <= 0.5
+            and _finite(s.frequency) and FREQUENCY_RANGE[0] <= s.frequency <= FREQUENCY_RANGE[1]
+            and _finite(getattr(s, drive)) and getattr(s, drive) >= 0.0
+            and (s.domain_height is None or (_finite(s.domain_height) and s.domain_height > 0)))
+
+
+def _grid_size(kind: str, s):
+    """(cells of the grid, cells of the resting layer's crests (None for a packing bed), Δx [m],
+    domain height [m]) of the layer ``s``, in Python floats (inf where they overflow; nothing is
+    allocated)."""
+    dx = s.diameter / s.cells_per_diameter
+    bound = s.energy_bound_height()
+    height = bound if s.domain_height is None else s.domain_height
+    nh, nz = s.box_width / dx, height / dx
+    cells = math.inf
+    if math.isfinite(nh) and math.isfinite(nz):
+        cells = float(math.ceil(nz - 1e-9))
+        for _ in range(s.dim - 1):
+            cells *= float(round(nh))          # a product of floats overflows to inf, no exception
+    rest = None
+    if kind != "packing_bed":
+        top = s.layer_height * (1.0 + s.surface_perturbation) / dx
+        rest = float(round(top)) if math.isfinite(top) else math.inf
+    return cells, rest, dx, height
+
+
+def _grid_fits(kind: str, s) -> bool:
+    try:
+        cells, rest, _, _ = _grid_size(kind, s)
+    except (ArithmeticError, TypeError, ValueError):
+        return False
+    return cells <= MAX_LAYER_CELLS and (rest is None or rest <= MAX_RESTING_CELLS)
+
+
+def _count_text(n) -> str:
+    n = float(n) if not isinstance(n, int) or n < 1e300 else math.inf
+    return "more than 1e+300" if n == math.inf else f"{n:.3g}"
+
+
+_SIZE_FIELDS = {
+    "packing_bed": ("box_width", "bed_height", "domain_height", "cells_per_diameter", "diameter", "gamma",
+                    "frequency", "gravity", "surface_perturbation"),
+    "tapped_layer": ("box_width", "layer_height", "domain_height", "cells_per_diameter", "diameter", "amplitude",
+                     "frequency", "gravity", "surface_perturbation"),
+}
+_SIZE_FIELDS["vibrated_box"] = _SIZE_FIELDS["tapped_layer"]
+
+
+def _size_problem(kind: str, s, given):
+    """(field, message) when the grid of the layer ``s`` would have more than
+    :data:`MAX_LAYER_CELLS` cells (or its resting layer more than :data:`MAX_RESTING_CELLS`),
+    computed in Python floats before anything is allocated; the field is the first of those the
+    config gives (``given``) that sets the size and is outside its valid range at these settings
+    (stated), else ``layer``.  None when the grid fits or its fields are not in range (the class
+    names those)."""
+    if not _size_inputs_ok(kind, s):
+        return None
+    try:
+        cells, rest, dx, height = _grid_size(kind, s)
+        bound = s.energy_bound_height()
+    except (ArithmeticError, TypeError, ValueError):
+        return None
+    if not math.isfinite(height) or (s.domain_height is not None and s.domain_height < bound):
+        return None                      # an unbounded domain, a domain below the energy bound: named below
+    if cells <= MAX_LAYER_CELLS and (rest is None or rest <= MAX_RESTING_CELLS):
+        return None
+    if cells > MAX_LAYER_CELLS:
+        reason = f"the grid would have {_count_text(cells)} cells of Δx = {dx:.4g} m (at most {MAX_LAYER_CELLS:.0e})"
+    else:
+        reason = (f"the resting layer would be {_count_text(rest)} cells tall (at most {MAX_RESTING_CELLS}: its rest "
+                  "state is a dense linear solve of that size)")
+    for name in _SIZE_FIELDS[kind]:
+        if name in given:
+            rng = _first_range(kind, s, name)
+            if rng:
+                return f"layer.{name}", (f"{_value_text(kind, s, name)} is outside the valid range at these settings, "
+                                         f"{rng}: {reason}")
+    return "layer", (f"{reason}; reduce the box, the heights, the cells per diameter or the floor's speed, which sets "
+                     "the domain height by the energy bound")
+
+
+def _value_text(kind: str, s, name: str) -> str:
+    spec = _RANGES[kind].get(name)
+    unit = spec.unit if isinstance(spec, _Range) else ("m" if name.endswith("height") else "")
+    return f"{getattr(s, name)!r}" + (f" {unit}" if unit else "")
+
+
+def _fmt(x: float, down: bool) -> str:
+    """``x`` to four significant digits, rounded down (``down``) or up: a bound printed inside the
+    valid range."""
+    if x == 0 or not math.isfinite(x):
+        return _g(x)
+    q = 10.0 ** (math.floor(math.log10(abs(x))) - 3)
+    v = (math.floor(x / q) if down else math.ceil(x / q)) * q
+    return f"{v:.4g}"
+
+
+def _edge(fits, good, bad, integer: bool = False):
+    """The value next to the boundary between ``good`` (fits) and ``bad`` (does not) on the good
+    side, by bisection (geometric for numbers > 0; fits monotone between them)."""
+    for _ in range(2200):                # enough for integers up to 2**2000
+        if integer:
+            if abs(bad - good) <= 1:
+                break
+            mid = (good + bad) // 2
+        else:
+            mid = math.sqrt(good) * math.sqrt(bad)
+            if not min(good, bad) < mid < max(good, bad) or abs(bad - good) <= 1e-9 * abs(good):
+                break
+        if fits(mid):
+            good = mid
+        else:
+            bad = mid
+    return good
+
+
+def _spec(kind: str, s, name: str):
+    """The :class:`_Range` of field ``name`` of the layer ``s`` at its settings (its lower bound
+    for the heights, the box and the CFL number; None for a field without one)."""
+    spec = _RANGES[kind].get(name)
+    c = s.cells_per_diameter
+    if name == "cfl":
+        return _Range(0.0, 0.5 / s.dim, lo_open=True)
+    if name == "domain_height":
+        return _Range(s.energy_bound_height(), _INF, "m")
+    if name == "bed_height":
+        return _Range(2 * s.dx / (1.0 - s.surface_perturbation), _INF, "m")
+    if name == "layer_height":           # round(H/Δx) (1 - δ) >= c + 1 (LayerSetup)
+        m_min = math.ceil((c + 1) / (1.0 - s.surface_perturbation) - 1e-9)
+        return _Range((m_min - 0.5 + 1e-6) * s.dx, _INF, "m")
+    if name == "diameter":
+        return _Range(0.0, _diameter_max(kind, s), "m", lo_open=True)
+    return spec if isinstance(spec, _Range) else None
+
+
+def _field_range(kind: str, s, name: str, fits) -> str | None:
+    """The valid range at these settings (text) of field ``name`` of the layer ``s`` for the
+    constraint ``fits`` (a function of a setup, monotone in the field), when the field's value
+    does not fit and some value in its range does; else None."""
+    value = getattr(s, name)
+    if name == "box_width":              # whole cells of Δx
+        dx = s.dx
+        n_lo = 3 if kind == "packing_bed" else s.cells_per_diameter + 1
+        n_user = round(value / dx) if math.isfinite(value / dx) else 2 ** 1000
+
+        def fits_n(n):
+            try:
+                return fits(_with(s, name, n * dx))
+            except OverflowError:        # int too large to convert to float
+                return False
+        if fits_n(n_user) or not fits_n(n_lo):
+            return None
+        n_hi = _edge(fits_n, n_lo, n_user, integer=True)
+        return f"[{n_lo * dx:.6g}, {n_hi * dx:.6g}] m (whole cells of Δx = {dx:.6g} m)"
+    spec = _spec(kind, s, name)
+    if spec is None or value is None or fits(s):
+        return None
+    if spec.integer:
+        lo, hi = int(spec.lo), (int(spec.hi) if math.isfinite(spec.hi) else 2 ** 62)
+    else:
+        lo, hi = (spec.lo if spec.lo > 0 else 1e-300), (spec.hi if math.isfinite(spec.hi) else 1e300)
+
+    def fits_v(v):
+        return fits(_with(s, name, v))
+    good_lo, good_hi = fits_v(lo), fits_v(hi)
+    if good_lo == good_hi:
+        return None                      # no value of this field alone fits (or it does not matter)
+    edge = _edge(fits_v, lo if good_lo else hi, value, integer=spec.integer)
+    if spec.integer:
+        return _range_text(spec, hi=str(edge), note=False) if good_lo else _range_text(spec, lo=str(edge), note=False)
+    if good_lo:
+        lo_text = None if spec.lo <= 0 else _fmt(spec.lo, down=False)
+        if spec.lo > 0 and float(lo_text) > edge:
+            return None
+        return _range_text(spec, lo=lo_text, hi=_fmt(edge, down=True), note=False)
+    exact = not math.isfinite(spec.hi) or float(_g(spec.hi)) <= spec.hi
+    hi_text = None if exact and name != "diameter" else _fmt(spec.hi, down=True)
+    text = _range_text(spec, lo=_fmt(edge, down=False), hi=hi_text, note=False)
+    if name == "diameter":
+        text += " (and the box a whole number of cells of Δx = diameter / cells_per_diameter)"
+    return text
+
+
+def _reblamed(kind: str, s, given, msg: str):
+    """(field, message) naming the field the config gives when the scenario class, refusing the
+    unchecked layer ``s`` with ``msg``, names one it does not (a packing bed's stiffness, the
+    heights or the box for a diameter), or a range that no value fills; else None."""
+    if kind == "packing_bed" and msg.startswith("stiffness = "):
+        return _stiffness_reblamed(s, given)
+    for blamed in ("box_width", "bed_height", "layer_height"):
+        if (msg.startswith(f"{blamed} = ") and blamed not in given and "diameter" in given
+                and _size_inputs_ok(kind, s)):
+            return _diameter_reblamed(kind, s, msg)
+    return None
+
+
+def _diameter_max(kind: str, s) -> float:
+    """The largest diameter [m] whose cells Δx = d / cells_per_diameter the layer ``s`` fits: its
+    height at least two cells (packing bed) or cells_per_diameter + 1 (a layer, also in the
+    troughs of the surface undulation), its box at least 3 or cells_per_diameter + 1 cells."""
+    c, delta = s.cells_per_diameter, s.surface_perturbation
+    if kind == "packing_bed":
+        return min(s.bed_height * (1.0 - delta) * c / 2.0, s.box_width * c / 3.0)
+    m_min = math.ceil((c + 1) / (1.0 - delta) - 1e-9)       # round(H/Δx) (1 - δ) >= c + 1 (LayerSetup)
+    return min(s.layer_height * c / (m_min - 0.5 + 1e-6), s.box_width * c / (c + 1.0))
+
+
+def _diameter_range_text(kind: str, s) -> str | None:
+    """The valid range of the diameter of the layer ``s`` at its settings: up to
+    :func:`_diameter_max`, down to the smallest one whose grid fits (None when none fits)."""
+    d_max, tiny = _diameter_max(kind, s), 1e-300
+
+    def fits(v):
+        return _grid_fits(kind, _with(s, "diameter", v))
+    if not fits(d_max):
+        return None
+    lo = "(0" if fits(tiny) else "[" + _fmt(_edge(fits, d_max, tiny), down=False)
+    return (f"{lo}, {_fmt(d_max, down=True)}] m (and the box a whole number of cells of Δx = diameter / "
+            "cells_per_diameter)")
+
+
+def _diameter_reblamed(kind: str, s, msg: str):
+    """(layer.diameter, message) when the diameter the config gives makes Δx too coarse for the
+    heights or the box, or the box not a whole number of cells."""
+    d, c = s.diameter, s.cells_per_diameter
+    d_max = _diameter_max(kind, s)
+    n_min = 3 if kind == "packing_bed" else c + 1
+    if d > d_max:
+        rng = _diameter_range_text(kind, s)
+        if rng is None:
+            return None
+        return "layer.diameter", f"{d!r} m is outside the valid range at these settings, {rng}: {msg}"
+    n = s.box_width * c / d
+    if "not a whole number of cells" in msg and math.floor(n) >= n_min:
+        return "layer.diameter", (f"{d!r} m is outside the valid range at these settings: box_width = "
+                                  f"{s.box_width!r} m must be a whole number of cells of Δx = diameter / "
+                                  f"cells_per_diameter ({n:.4g} cells); valid are box_width × cells_per_diameter / n "
+                                  f"for whole n, e.g. {s.box_width * c / math.ceil(n):.6g} or "
+                                  f"{s.box_width * c / math.floor(n):.6g} m")
+    return None
+
+
+def _packing_measures(t):
+    """(overlap of the bottom contacts under the bed's weight [m], time steps of the run, the
+    packing law, the CFL number) of the (unchecked) packing bed ``t``, as
+    :meth:`bsrflow.physics.packing_bed.PackingBed._check_stiffness` computes them."""
+    law = t.law()
+    overlap = law.close_packing_density * t.gravity * t.bed_height / law.k1
+    cfl = 0.4 / t.dim if t.cfl is None else t.cfl
+    steps = t.t_end * law.wave_speed() / (cfl * t.dx)
+    return overlap, steps, law, cfl
+
+
+def _packing_fits(t, overlap: bool = True, steps: bool = True) -> bool:
+    """True when the packing bed ``t``'s grid fits and (``overlap``, ``steps``) its weight's
+    overlap and its number of time steps are within the bounds of its stiffness check."""
+    from ..physics.packing_bed import MAX_STATIC_OVERLAP, MAX_STEPS
+    if not _grid_fits("packing_bed", t):
+        return False
+    try:
+        o, n, _, _ = _packing_measures(t)
+    except (ArithmeticError, TypeError, ValueError):
+        return False
+    return (not overlap or o <= MAX_STATIC_OVERLAP * t.diameter) and (not steps or n <= MAX_STEPS)
+
+
+def _fits_functions(kind: str, which: str | None = None):
+    """The constraints a field's range at these settings is computed for: every one the layer has
+    (its grid; a packing bed's stiffness check too), then, when no value of the field satisfies
+    them all, only its grid and ``which`` ("overlap", "steps") of the stiffness check."""
+    if kind != "packing_bed":
+        return (lambda t: _grid_fits(kind, t),)
+    return (_packing_fits, lambda t: _packing_fits(t, overlap=which == "overlap", steps=which == "steps"))
+
+
+def _first_range(kind: str, s, name: str, which: str | None = None) -> str | None:
+    for fits in _fits_functions(kind, which):
+        rng = _field_range(kind, s, name, fits)
+        if rng:
+            return rng
+    return None
+
+
+def _stiffness_reblamed(s, given):
+    """A packing bed's stiffness check (:meth:`bsrflow.physics.packing_bed.PackingBed._check_stiffness`)
+    failed on the unchecked bed ``s``: (field, message) naming the field the config gives that
+    makes the bed's weight overlap its contacts too far or the run too long, with its valid range
+    at these settings, when the config does not give the stiffness or no stiffness would do; else
+    None (the class's message stands)."""
+    from ..physics.packing_bed import MAX_STATIC_OVERLAP, MAX_STEPS
+    try:
+        overlap, steps, law, cfl = _packing_measures(s)
+        k_used = s.stiffness * s.stiffness_factor
+        k_min = k_used * overlap / (MAX_STATIC_OVERLAP * s.diameter)
+        k_max = (MAX_STEPS * cfl * s.dx / (s.t_end * law.wave_speed() / math.sqrt(k_used))) ** 2
+    except (ArithmeticError, TypeError, ValueError):
+        return None
+    if "stiffness" in given and k_min <= k_max:
+        return None                      # the class names the stiffness with its (non-empty) range
+    if overlap > MAX_STATIC_OVERLAP * s.diameter:
+        which, names = "overlap", ("stiffness_factor", "bed_height", "gravity", "density", "coordination")
+        reason = (f"the bed's weight would overlap its bottom contacts by {overlap / s.diameter:.3g} d (at most "
+                  f"{MAX_STATIC_OVERLAP:g} d; stiffness = {s.stiffness!r} N/m)")
+    elif steps > MAX_STEPS:
+        which, names = "steps", ("t_end", "cfl", "cells_per_diameter", "stiffness_factor", "restitution", "density",
+                                 "coordination")
+        reason = f"the run would take about {steps:.2g} time steps (at most {MAX_STEPS:.0e})"
+    else:
+        return None
+    for name in names:
+        if name in given:
+            rng = _first_range("packing_bed", s, name, which)
+            if rng:
+                return (f"layer.{name}", f"{_value_text('packing_bed', s, name)} is outside the valid range at these "
+                        f"settings, {rng}: {reason}")
+    return None
+
+
+def _narrow_box_problem(setup, given):
+    """(field, message) of a packing bed whose box is narrower than the three cells a grid needs
+    (the box width if the config gives it, else the diameter)."""
+    dx, c = setup.dx, setup.cells_per_diameter
+    if "box_width" in given:
+        n_hi = _edge(lambda n: _grid_fits("packing_bed", _with(setup, "box_width", n * dx)), 3, 2 ** 62, integer=True)
+        return "layer.box_width", (f"{setup.box_width!r} m is outside the valid range at these settings, "
+                                   f"[{3 * dx:.6g}, {n_hi * dx:.6g}] m (whole cells of Δx = {dx:.6g} m): the grid "
+                                   "needs at least 3 cells across")
+    return "layer.diameter", (f"{setup.diameter!r} m is outside the valid range at these settings, "
+                              f"{_diameter_range_text('packing_bed', setup)}: the box (box_width = {setup.box_width!r} "
+                              "m) must be at least 3 cells of Δx = diameter / cells_per_diameter")
 
 
 def _tracer_positions(table, setup):
@@ -415,6 +951,22 @@ class _LayerBase(RunJob):
 
     def vtk_collection(self):
         return self.vtk_writer.pvd.as_posix() if self.vtk_writer else None
+
+    def notes(self):
+        """A note when the config gives a ``settle_time`` at or after ``t_end``: the floor does
+        not move in this run (not an error: a settling run; the column notes taps after
+        ``run.t_end`` the same way)."""
+        st = getattr(self.setup, "settle_time", None)
+        if st is None or st < self.t_end:
+            return []
+        try:
+            given = "settle_time" in tomllib.loads(self.cfg.text).get("layer", {})
+        except (tomllib.TOMLDecodeError, AttributeError):
+            given = True
+        if not given:
+            return []
+        return [f"note: layer.settle_time = {st:g} s is at or after layer.t_end = {self.t_end:g} s: the floor "
+                "does not move in this run (it only settles)"]
 
 
 class LayerJob(_LayerBase):
@@ -533,8 +1085,8 @@ class PackingBedJob(_ControllerJob):
 
     def notes(self):
         if self.setup.stiffness_factor >= 1.0:
-            return []
-        return [f"reduced contact stiffness: K x {self.setup.stiffness_factor:.4g}, impact Mach number "
+            return super().notes()
+        return super().notes() + [f"reduced contact stiffness: K x {self.setup.stiffness_factor:.4g}, impact Mach number "
                 f"M = {self.setup.impact_mach():.3g}; its cost is measured on the 1-D column only (docs/model.md, "
                 "\"Stiffness\")"]
 

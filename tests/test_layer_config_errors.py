@@ -1,0 +1,204 @@
+"""Bad input in a layer config (`bsrflow run CONFIG.toml` with a `[layer]` table) is one line,
+exit code 2, naming the field as the config writes it (`layer.<field>`) and its valid range,
+refused before any work starts and without a file written (an audit's findings, 2026-12: huge
+sizes gave tracebacks or a cell count wrapped around in int64, errors named another field or an
+empty range, type errors gave no range, `domain_height = 0` ran, `settle_time = 1e300` ran)."""
+
+import dataclasses
+import re
+
+import pytest
+
+from bsrflow.cli import main
+from bsrflow.io.config import ConfigError
+from bsrflow.io.layer_runner import KINDS, LayerJob, _RANGES, _kind_classes, load_layer_config
+
+AT_SETTINGS = re.compile(r"valid range at these settings, (?:integers in )?([\[(])([^,\]]+), ([^\])]+)[\])]")
+
+
+def refused(tmp_path, capsys, text):
+    """Run the config ``text``; assert exit 2, one line, no traceback, no output; return the line."""
+    cfg = tmp_path / "bad.toml"
+    cfg.write_text(text)
+    out = tmp_path / "o" / "bad.nc"
+    out.parent.mkdir(exist_ok=True)
+    assert main(["run", str(cfg), "--quiet", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
+    assert list(out.parent.iterdir()) == []         # no output, no checkpoint, no VTK folder
+    return err
+
+
+def stated_range(err):
+    """(lo, hi) of the "valid range at these settings, [lo, hi]" of ``err``, checked non-empty."""
+    m = AT_SETTINGS.search(err)
+    assert m, err
+    lo, hi = float(m.group(2)), float(m.group(3))
+    assert 0.0 <= lo <= hi < float("inf"), err
+    return lo, hi
+
+
+def loads(tmp_path, text):
+    cfg = tmp_path / "ok.toml"
+    cfg.write_text(text)
+    return load_layer_config(cfg)
+
+
+# -- 1. sizes: computed in Python numbers, refused before anything is allocated ------------------------
+
+@pytest.mark.parametrize("kind", ["packing_bed", "tapped_layer", "vibrated_box"])
+@pytest.mark.parametrize("width", ["1e300", "1e10", "1e7"])
+def test_a_huge_box_names_box_width_and_its_range(kind, width, tmp_path, capsys):
+    err = refused(tmp_path, capsys, f'[layer]\nkind = "{kind}"\nbox_width = {width}\n')
+    assert err.startswith("bsrflow run: error: layer.box_width: ") and "cells" in err
+    lo, hi = stated_range(err)
+    assert hi < 10.0
+    # the upper end of the stated range is accepted, one cell more is refused
+    dx = float(re.search(r"Δx = ([0-9.e+-]+) m", err).group(1))
+    assert loads(tmp_path, f'[layer]\nkind = "{kind}"\nbox_width = {hi!r}\n').setup.box_width == hi
+    with pytest.raises(ConfigError, match="layer.box_width"):
+        loads(tmp_path, f'[layer]\nkind = "{kind}"\nbox_width = {round(hi / dx + 1) * dx!r}\n')
+
+
+def test_the_stated_cell_count_grows_with_the_box(tmp_path, capsys):
+    counts = []
+    for width in ("1e7", "1e8", "1e9"):
+        err = refused(tmp_path, capsys, f'[layer]\nkind = "packing_bed"\nbox_width = {width}\n')
+        counts.append(float(re.search(r"the grid would have ([0-9.e+]+) cells", err).group(1)))
+    assert counts[1] == pytest.approx(100 * counts[0], rel=1e-2)      # 3-D: the box squared
+    assert counts[2] == pytest.approx(100 * counts[1], rel=1e-2)
+
+
+@pytest.mark.parametrize("text, field", [
+    ('kind = "packing_bed"\nbed_height = 1e300', "bed_height"),
+    ('kind = "packing_bed"\ncells_per_diameter = 100000', "cells_per_diameter"),
+    ('kind = "packing_bed"\ndiameter = 1e-9', "diameter"),
+    ('kind = "packing_bed"\ndomain_height = 1e10', "domain_height"),
+    ('kind = "packing_bed"\ngamma = 1e100', "gamma"),
+    ('kind = "packing_bed"\nfrequency = 0.001', "frequency"),
+    ('kind = "tapped_layer"\nlayer_height = 1e300', "layer_height"),
+    ('kind = "tapped_layer"\ndomain_height = 1e300', "domain_height"),
+    ('kind = "vibrated_box"\namplitude = 1e100', "amplitude"),
+    # a tall, narrow layer: the grid fits, the dense solve of its rest state (828 GiB) did not
+    ('kind = "tapped_layer"\ndim = 2\nbox_width = 0.012\nlayer_height = 1000.0', "layer_height"),
+])
+def test_a_grid_too_large_names_the_field_that_sets_it(text, field, tmp_path, capsys):
+    err = refused(tmp_path, capsys, f"[layer]\n{text}\n")
+    assert err.startswith(f"bsrflow run: error: layer.{field}: "), err
+    stated_range(err)
+
+
+def test_a_packing_box_narrower_than_three_cells_names_box_width(tmp_path, capsys):
+    err = refused(tmp_path, capsys, '[layer]\nkind = "packing_bed"\nbox_width = 0.0025\n')
+    assert err.startswith("bsrflow run: error: layer.box_width: 0.0025 m is outside")
+    assert stated_range(err)[0] == pytest.approx(0.00375)
+
+
+# -- 2. the field the user set, with a non-empty range ----------------------------------------------
+
+@pytest.mark.parametrize("text, field", [
+    ('kind = "packing_bed"\nt_end = 1e300', "t_end"),
+    ('kind = "packing_bed"\nt_end = 1e5', "t_end"),
+    ('kind = "packing_bed"\nt_end = 1e5\nstiffness = 1e4', "t_end"),    # no stiffness would do
+    ('kind = "packing_bed"\nbed_height = 1e300', "bed_height"),
+    ('kind = "packing_bed"\ngravity = 1e300', "gravity"),
+    ('kind = "packing_bed"\ngravity = 1e5', "gravity"),
+    ('kind = "packing_bed"\ndiameter = 1e300', "diameter"),
+    ('kind = "packing_bed"\ndiameter = 0.04', "diameter"),
+    ('kind = "packing_bed"\ndim = 2\nbed_height = 60.0\ncells_per_diameter = 1', "bed_height"),   # overlap
+    ('kind = "packing_bed"\nstiffness_factor = 1e-9', "stiffness_factor"),
+    ('kind = "packing_bed"\ncfl = 1e-9', "cfl"),
+    ('kind = "tapped_layer"\ndiameter = 1e300', "diameter"),
+])
+def test_errors_name_the_field_the_config_sets(text, field, tmp_path, capsys):
+    err = refused(tmp_path, capsys, f"[layer]\n{text}\n")
+    assert err.startswith(f"bsrflow run: error: layer.{field}: "), err
+    assert "stiffness = 50000.0 N/m is outside" not in err
+    stated_range(err)
+
+
+def test_the_stated_t_end_bound_is_accepted(tmp_path, capsys):
+    err = refused(tmp_path, capsys, '[layer]\nkind = "packing_bed"\nt_end = 1e300\n')
+    _, hi = stated_range(err)
+    assert loads(tmp_path, f'[layer]\nkind = "packing_bed"\nt_end = {hi!r}\nsave_every = 1.0\n').setup.t_end == hi
+
+
+def test_a_diameter_that_splits_the_box_names_diameter(tmp_path, capsys):
+    for kind in ("packing_bed", "tapped_layer"):
+        err = refused(tmp_path, capsys, f'[layer]\nkind = "{kind}"\ndiameter = 0.007\n')
+        assert err.startswith("bsrflow run: error: layer.diameter: 0.007 m is outside the valid range"), err
+        assert "whole number of cells" in err and "e.g." in err
+
+
+def test_one_tap_with_a_zero_period_names_tap_period(tmp_path, capsys):
+    err = refused(tmp_path, capsys, '[layer]\nkind = "tapped_layer"\ntap_period = 0\n')
+    assert err.startswith("bsrflow run: error: layer.tap_period: 0 is outside the valid range (0, inf) s"), err
+    err = refused(tmp_path, capsys, '[layer]\nkind = "tapped_layer"\nn_taps = 3\ntap_period = 0\n')
+    assert "layer.tap_period" in err and "[0.05, inf) s" in err
+
+
+def test_the_stiffness_is_still_named_when_the_config_sets_it(tmp_path, capsys):
+    err = refused(tmp_path, capsys, '[layer]\nkind = "packing_bed"\nstiffness = 1e-3\n')
+    assert err.startswith("bsrflow run: error: layer.stiffness: ")
+    lo, hi = (float(v) for v in re.search(r"\[([0-9.e+-]+), ([0-9.e+-]+)\] N/m", err).groups())
+    assert lo <= hi
+
+
+# -- 3. type errors state the range --------------------------------------------------------------------
+
+@pytest.mark.parametrize("text, words", [
+    ('kind = "packing_bed"\ndiameter = nan', "layer.diameter: nan must be a finite number; valid range: (0, inf) m"),
+    ('kind = "granular_bed"\nn_spheres = "abc"', "layer.n_spheres: 'abc' must be an integer; valid range: "
+                                                 "integers in [1, 1e+07]"),
+    ('kind = "packing_bed"\ngamma = true', "layer.gamma: True must be a finite number; valid range: [0, inf)"),
+    ('kind = "tapped_layer"\ncells_per_diameter = 2.5', "valid range: integers >= 2"),
+    ('kind = "vibrated_box"\nbottom_density = inf', "valid range: [1e-06, 1e+06] kg/m^n"),
+    ('kind = "packing_bed"\ndomain_height = "x"', "valid range: [energy bound, inf) m (or not given"),
+    ('kind = "granular_bed"\ngamma = nan', "layer.gamma: nan must be a finite number; valid range: [0, 20]"),
+    ('kind = "tapped_layer"\nsides = 5', "layer.sides: 5 must be a string; valid: 'wall' or 'periodic'"),
+])
+def test_type_errors_state_the_valid_range(text, words, tmp_path, capsys):
+    err = refused(tmp_path, capsys, f"[layer]\n{text}\n")
+    assert words in err, err
+
+
+def test_every_field_of_every_kind_has_a_stated_range():
+    for kind in KINDS:
+        fields = {f.name for f in dataclasses.fields(_kind_classes()[kind])}
+        assert fields == set(_RANGES[kind]), kind
+
+
+# -- 4. domain_height = 0 -----------------------------------------------------------------------------
+
+@pytest.mark.parametrize("kind", ["tapped_layer", "vibrated_box", "packing_bed"])
+def test_a_zero_domain_height_is_refused_by_every_kind(kind, tmp_path, capsys):
+    err = refused(tmp_path, capsys, f'[layer]\nkind = "{kind}"\ndomain_height = 0\n')
+    assert re.search(r"error: layer\.domain_height: domain_height = 0 m is outside the valid range "
+                     r"\[0\.0\d+, inf\) m \(energy bound", err), err
+
+
+def test_a_domain_height_not_given_is_the_energy_bound(tmp_path):
+    cfg = loads(tmp_path, '[layer]\nkind = "tapped_layer"\n')
+    assert cfg.setup.domain_height is None
+    assert cfg.setup.grid().upper[-1] >= cfg.setup.energy_bound_height()
+
+
+# -- 5. settle_time -----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("kind", ["packing_bed", "tapped_layer", "vibrated_box"])
+@pytest.mark.parametrize("value", ["1e300", "-1.0", "2e5"])
+def test_settle_time_is_bounded(kind, value, tmp_path, capsys):
+    err = refused(tmp_path, capsys, f'[layer]\nkind = "{kind}"\nsettle_time = {value}\n')
+    assert "error: layer.settle_time: " in err and "valid range [0, 100000] s" in err, err
+
+
+def test_a_settle_time_after_t_end_is_a_settling_run_with_a_note(tmp_path):
+    """Not refused (the defaults' short runs settle only, and `config_resolved` writes the
+    default settle_time out), but a settle_time the config gives at or after t_end is noted."""
+    text = '[layer]\nkind = "tapped_layer"\ndim = 2\nt_end = 0.03\n'
+    job = LayerJob(loads(tmp_path, text), tmp_path / "a.nc")
+    assert job.notes() == []                                # the default settle_time 0.1 s
+    job = LayerJob(loads(tmp_path, text + "settle_time = 0.05\n"), tmp_path / "a.nc")
+    assert len(job.notes()) == 1 and "layer.settle_time = 0.05 s is at or after layer.t_end = 0.03 s" in job.notes()[0]
+    resolved = loads(tmp_path, text).resolved_text()
+    assert loads(tmp_path, resolved).setup == loads(tmp_path, text).setup
