@@ -202,3 +202,14 @@ def test_a_settle_time_after_t_end_is_a_settling_run_with_a_note(tmp_path):
     assert len(job.notes()) == 1 and "layer.settle_time = 0.05 s is at or after layer.t_end = 0.03 s" in job.notes()[0]
     resolved = loads(tmp_path, text).resolved_text()
     assert loads(tmp_path, resolved).setup == loads(tmp_path, text).setup
+
+
+def test_a_box_of_exactly_the_least_cells_and_the_stated_least_height_are_accepted(tmp_path, capsys):
+    """box_width = 0.009 m is 3 cells of 0.003 m, but 0.009 / 0.003 = 2.9999999999999996 was refused
+    as "at least 0.009 m"; the least layer height stated was 0.01 m, itself refused (the layer's
+    cells are round(H / Δx))."""
+    base = 'kind = "tapped_layer"\ndim = 2\ndiameter = 0.006\ncells_per_diameter = 2\n'
+    loads(tmp_path, f"[layer]\n{base}box_width = 0.009\n")
+    err = refused(tmp_path, capsys, f"[layer]\n{base}layer_height = 0.0104\n")
+    assert "layer.layer_height" in err and "at least 0.0105 m" in err, err
+    loads(tmp_path, f"[layer]\n{base}layer_height = 0.0105\n")

@@ -217,10 +217,12 @@ class LayerSetup:
         if not (np.isfinite(self.settle_time) and self.settle_time >= 0):
             raise ValueError(f"settle_time = {self.settle_time!r} is outside the valid range [0, inf) s")
         if self.layer_cells * (1.0 - self.surface_perturbation) < self.cells_per_diameter + 1:
+            # the smallest whole m with m (1 − δ) ≥ c + 1, and the least height that rounds to it
+            m_min = math.ceil((self.cells_per_diameter + 1) / (1.0 - self.surface_perturbation) - 1e-9)
             raise ValueError(f"layer_height = {self.layer_height!r} m is outside the valid range: at least "
-                             f"{(self.cells_per_diameter + 1) * self.dx / (1 - self.surface_perturbation):.3g} m "
-                             "(kernel radius + 1 cell, also in the troughs of the surface undulation)")
-        if self.box_width / self.dx < self.cells_per_diameter + 1:
+                             f"{(m_min - 0.5 + 1e-6) * self.dx:.4g} m ({m_min} cells of Δx = {self.dx:.4g} m: kernel "
+                             "radius + 1 cell, also in the troughs of the surface undulation)")
+        if round(self.box_width / self.dx) < self.cells_per_diameter + 1:      # (whole cells: checked next)
             raise ValueError(f"box_width = {self.box_width!r} m is outside the valid range: at least "
                              f"{(self.cells_per_diameter + 1) * self.dx:g} m (kernel radius + 1 cell)")
         check_whole_cells("box_width", self.box_width, self.dx)
