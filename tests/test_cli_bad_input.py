@@ -113,3 +113,17 @@ def test_a_diameter_the_dem_cannot_tap_is_refused_before_the_runs(tmp_path, caps
     argv = [command, "--diameter", "10"] + (["--out", str(tmp_path / "demo")] if command == "demo" else [])
     _refused(capsys, argv, "--diameter", "[1e-06, 0.701] m")
     assert not (tmp_path / "demo").exists()
+
+
+def test_init_force_replaces_only_a_config(tmp_path, capsys):
+    """``init PATH --force`` overwrote any file (an audit, as root, overwrote /etc/passwd): it now
+    replaces an empty file or a bsrflow config only."""
+    other = tmp_path / "notes.txt"
+    other.write_text("root:x:0:0:root:/root:/bin/bash\n")
+    _refused(capsys, ["init", str(other), "--force"], "is not a bsrflow config")
+    assert other.read_text() == "root:x:0:0:root:/root:/bin/bash\n"
+    cfg = tmp_path / "col.toml"
+    for text in ("", '[layer]\nkind = "packing_bed"\n', "[run]\nt_end = 0.5\n"):
+        cfg.write_text(text)
+        assert main(["init", str(cfg), "--force"]) == 0
+        assert "[column]" in cfg.read_text()

@@ -30,7 +30,7 @@ def add_parser(sub):
                        description="Write a commented default configuration of the tapped column "
                                    "(units and valid ranges in the comments).")
     p.add_argument("path", metavar="PATH", help="file to write, e.g. column.toml (its folder must exist)")
-    p.add_argument("--force", action="store_true", help="overwrite PATH if it exists")
+    p.add_argument("--force", action="store_true", help="overwrite PATH if it exists and is a bsrflow config (or empty)")
     p.add_argument("--kernel", choices=("seed", "packing"), default="seed",
                    help="the interaction of the config: the seed's kernel (default; m0 and kernel_dissipation "
                         "calibrated) or the packing continuum (nothing fitted)")
@@ -171,10 +171,32 @@ def _sigterm_as_interrupt():
                 _RESEND["timer"] = None
 
 
+def _replaceable_config(path: str) -> bool:
+    """True for a file ``bsrflow init --force`` may replace: empty, or TOML (comments only, too) whose tables are all
+    bsrflow's (a column config's or a layer config's), so that --force never overwrites another
+    kind of file (an audit, running as root, overwrote /etc/passwd with it)."""
+    import tomllib
+
+    from .config import FIELDS
+    try:
+        with open(path, "rb") as fh:
+            raw = fh.read()
+        if not raw.strip():
+            return True
+        data = tomllib.loads(raw.decode("utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return False
+    tables = {f.name.split(".")[0] for f in FIELDS} | {"layer", "output", "tracers"}
+    return all(isinstance(v, dict) and k in tables for k, v in data.items())
+
+
 def _init(args) -> int:
     path = check_output_file(args.path, "PATH")
     if os.path.exists(path) and not args.force:
         raise ConfigError(path, "exists; use --force to overwrite it")
+    if os.path.exists(path) and not _replaceable_config(path):
+        raise ConfigError(path, "exists and is not a bsrflow config (not empty, not TOML with bsrflow's tables): "
+                          "--force replaces only configs; remove it yourself or choose another path")
     with open(path, "w", encoding="utf-8") as fh:
         fh.write(default_config_text(args.kernel))
     print(f"wrote {path}; run it with: bsrflow run {path}")
