@@ -15,7 +15,6 @@ Needs a git checkout.  One core.  Machine-dependent.
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import os
 import subprocess
 import sys
@@ -27,29 +26,12 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 from _args import merge_json, output_json, positive_int  # noqa: E402
+from _git_ref import load_module_at  # noqa: E402
 
 from bsrflow.numerics import bed_lagrangian  # noqa: E402
 from bsrflow.physics.granular_bed import BedSetup  # noqa: E402
 
 SERIES = ("mass_centre", "top", "theta_mean", "floor_force", "internal_energy")
-
-
-def _load_ref(ref: str, tmp: str):
-    """``bed_lagrangian`` of ``ref`` as a standalone module (its relative imports made absolute)."""
-    root = subprocess.run(["git", "rev-parse", "--show-toplevel"], capture_output=True, text=True, check=True,
-                          cwd=os.path.dirname(os.path.abspath(__file__))).stdout.strip()
-    src = subprocess.run(["git", "show", f"{ref}:src/bsrflow/numerics/bed_lagrangian.py"], capture_output=True,
-                         text=True, check=True, cwd=root).stdout
-    src = (src.replace("cache=True", "cache=False").replace("from ..physics", "from bsrflow.physics")
-           .replace("from .solver", "from bsrflow.numerics.solver"))
-    path = os.path.join(tmp, "ref_bed_lagrangian.py")
-    with open(path, "w") as fh:
-        fh.write(src)
-    spec = importlib.util.spec_from_file_location("ref_bed_lagrangian", path)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod                  # its dataclasses look their module up
-    spec.loader.exec_module(mod)
-    return mod
 
 
 def _run(advance, setup):
@@ -78,7 +60,7 @@ def main(argv=None) -> int:
         setup = setup.with_(n_cells=args.cells)
     with tempfile.TemporaryDirectory(prefix="bsrflow_ab_bed_") as tmp:
         try:
-            ref = _load_ref(args.ref, tmp)
+            ref = load_module_at(args.ref, "bed_lagrangian", tmp)
         except subprocess.CalledProcessError as exc:
             print(f"ab_bed_step: --ref {args.ref}: git show failed: {exc.stderr.strip()}", file=sys.stderr)
             return 2

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import inspect
-import importlib.util
 import os
 import subprocess
 import sys
@@ -31,6 +30,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import bench_step  # noqa: E402
 from _args import positive_int  # noqa: E402
+from _git_ref import load_module_at  # noqa: E402
 
 from bsrflow.numerics.solver import Scheme  # noqa: E402
 from bsrflow.physics.model import jit_user  # noqa: E402
@@ -40,20 +40,7 @@ MODULES = ("compiled", "fast_integral")
 
 def _load_ref(ref, tmp):
     """The modules of ``ref`` as standalone modules (both import only numpy, numba, llvmlite)."""
-    root = subprocess.run(["git", "rev-parse", "--show-toplevel"], capture_output=True, text=True,
-                          check=True, cwd=os.path.dirname(os.path.abspath(__file__))).stdout.strip()
-    mods = {}
-    for name in MODULES:
-        src = subprocess.run(["git", "show", f"{ref}:src/bsrflow/numerics/{name}.py"], capture_output=True,
-                             text=True, check=True, cwd=root).stdout
-        path = os.path.join(tmp, f"ref_{name}.py")
-        with open(path, "w") as f:
-            f.write(src.replace("cache=True", "cache=False"))
-        spec = importlib.util.spec_from_file_location(f"ref_{name}", path)
-        mod = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(mod)
-        mods[name] = mod
-    return mods
+    return {name: load_module_at(ref, name, tmp) for name in MODULES}
 
 
 def main(argv=None) -> int:

@@ -630,7 +630,7 @@ def test_the_gamma3_flight_is_converged_in_the_cells():
         assert abs(means[n] / means[200] - 1.0) < 0.005, means
 
 
-@pytest.mark.parametrize("tag", ["", "_hooke"])
+@pytest.mark.parametrize("tag", ["N2000_L13d", "N2000_L13d_hooke"])
 def test_the_reference_beds_energy_budgets_at_gamma3(tag):
     """The two frictionless LIGGGHTS beds at Γ = 3 (Walton–Braun and the spring–dashpot control,
     whose velocities were dumped on 2026-12-04), from the committed files alone: the budget's

@@ -149,17 +149,24 @@ def _doubling_gamma(gammas, doubled):
     return 0.5 * (min(pd) + max(below)) if below else min(pd)
 
 
+MAIN_RUNS = "N2000_L13d"
+"""The tag of the main reference runs (:func:`_run_dir`): N = 2000 in a 13 d box, Walton–Braun,
+e = 0.9, frictionless."""
+E05_RUNS = "N2000_L13d_e0.5"
+"""The exploratory e = 0.5 runs (same bed, same K)."""
+FRICTION_RUNS = "N2000_L13d_hooke_mu0.5"
+"""The frictional runs (spring–dashpot, μ = 0.5)."""
+
+
 def _read_csv(path):
     return np.genfromtxt(path, delimiter=",", names=True, skip_header=1)
 
 
-def _run_dir(ref, gamma: float, tag: str = "") -> Path:
-    """The folder of the reference run at Γ = ``gamma``: the N = 2000, 13 d box runs, ``tag``
-    naming the variant ("", "_e0.5", "_hooke", "_hooke_mu0.5"), or :data:`LARGE_BOX` (the
-    N = 10 000, 29 d box run of the main law)."""
-    if tag == LARGE_BOX:
-        return Path(ref) / "results" / f"gamma_{gamma:.2f}_N10000_L29d"
-    return Path(ref) / "results" / f"gamma_{gamma:.2f}_N2000_L13d{tag}"
+def _run_dir(ref, gamma: float, tag: str = MAIN_RUNS) -> Path:
+    """The folder of the reference run ``tag`` at Γ = ``gamma``: ``results/gamma_<Γ>_<tag>``, the
+    tag naming the bed and the variant (:data:`MAIN_RUNS`, :data:`E05_RUNS`, :data:`SPRING_DASHPOT`,
+    :data:`FRICTION_RUNS`, :data:`LARGE_BOX`)."""
+    return Path(ref) / "results" / f"gamma_{gamma:.2f}_{tag}"
 
 
 def _dem_flight_list(folder: Path):
@@ -423,12 +430,12 @@ def reference_bed(ref: Path, n_cells=200):
     return gammas, params, base
 
 
-SPRING_DASHPOT = "_hooke"
+SPRING_DASHPOT = "N2000_L13d_hooke"
 """The reference runs' tag of the frictionless spring–dashpot bed (the same K and e)."""
 SPRING_DASHPOT_RUNS = "LIGGGHTS spring-dashpot, frictionless"
 LARGE_BOX = "N10000_L29d"
 """The tag of the reference's lateral-size run: N = 10 000 spheres in a 29 d × 29 d box, the same
-depth per area, law and Γ = 3 (its own folder name, not a variant suffix)."""
+depth per area, law and Γ = 3."""
 LARGE_BOX_RUNS = "LIGGGHTS Walton-Braun, N = 10 000 in a 29 d box"
 
 MODEL = ("packing stress + granular temperature (bsrflow.physics.granular_bed), horizontally uniform bed "
@@ -448,18 +455,18 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
     gammas = [float(g) for g in (known if gammas is None else gammas)]
     cases, runs, extra, long_runs, spring_dashpot, large_box = [], {}, [], [], [], []
     # (kind, setup, reference tag, list it joins, what the reference run is)
-    tasks = [("case", base.with_(gamma=g), "", cases, None) for g in gammas]
+    tasks = [("case", base.with_(gamma=g), MAIN_RUNS, cases, None) for g in gammas]
     if include_extra:
         e05 = _read_csv(ref / "flight_vs_gamma_e0.5.csv")
-        tasks += [("case", base.with_(gamma=g, restitution=0.5), "_e0.5", extra,
+        tasks += [("case", base.with_(gamma=g, restitution=0.5), E05_RUNS, extra,
                    "LIGGGHTS Walton-Braun e = 0.5, frictionless") for g in [float(x) for x in e05["gamma"]]]
-        tasks += [("case", base.with_(gamma=3.0), "_hooke_mu0.5", extra,
+        tasks += [("case", base.with_(gamma=3.0), FRICTION_RUNS, extra,
                    "LIGGGHTS spring-dashpot, friction 0.5; the continuum smooth")]
         fric = _read_csv(ref / "flight_vs_gamma_hooke_mu0.5.csv")
-        tasks += [("case", base.with_(gamma=g, friction=FRICTION), "_hooke_mu0.5", extra,
+        tasks += [("case", base.with_(gamma=g, friction=FRICTION), FRICTION_RUNS, extra,
                    f"LIGGGHTS spring-dashpot, friction {FRICTION:g}; the continuum with friction {FRICTION:g}")
                   for g in [float(x) for x in np.atleast_1d(fric["gamma"])]]
-        tasks += [("long", base.with_(gamma=g, friction=FRICTION, cycles=LONG_CYCLES), "", long_runs, None)
+        tasks += [("long", base.with_(gamma=g, friction=FRICTION, cycles=LONG_CYCLES), None, long_runs, None)
                   for g in LONG_FRICTION_GAMMAS]
 
     def finish(task, got):
@@ -478,18 +485,15 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
         _log_case(case, dem)
         if into is cases:
             runs[case["gamma"]] = (run[0], traj)
-            if include_extra and (_run_dir(ref, setup.gamma, SPRING_DASHPOT) / "trajectory.csv").exists():
-                # the same continuum run against the frictionless spring-dashpot bed (same K and e)
-                other, _ = _case_against(run, setup, ref, SPRING_DASHPOT)
-                other["dem"] = SPRING_DASHPOT_RUNS
-                spring_dashpot.append(other)
-                _log_case(other, SPRING_DASHPOT_RUNS)
-            if include_extra and (_run_dir(ref, setup.gamma, LARGE_BOX) / "trajectory.csv").exists():
-                # the same run against the reference's lateral-size check (the same bed per area)
-                other, _ = _case_against(run, setup, ref, LARGE_BOX)
-                other["dem"] = LARGE_BOX_RUNS
-                large_box.append(other)
-                _log_case(other, LARGE_BOX_RUNS)
+            # the same continuum run against the frictionless spring-dashpot bed (same K and e) and
+            # the reference's lateral-size run (the same bed per area), where they were run
+            for tag, label, joins in ((SPRING_DASHPOT, SPRING_DASHPOT_RUNS, spring_dashpot),
+                                      (LARGE_BOX, LARGE_BOX_RUNS, large_box)):
+                if include_extra and (_run_dir(ref, setup.gamma, tag) / "trajectory.csv").exists():
+                    other, _ = _case_against(run, setup, ref, tag)
+                    other["dem"] = label
+                    joins.append(other)
+                    _log_case(other, label)
 
     def _log_case(case, dem):
         if log:

@@ -42,7 +42,7 @@ Python numbers before anything is allocated, and a setting that only fails toget
 (the grid's size, a packing bed's stiffness check: its weight's overlap and its number of time
 steps, the cells of the box for a diameter) names the field the config gives, with its valid
 range at these settings.  ``domain_height`` not given is the energy bound; 0 is refused, as any
-height below that bound.  ``settle_time`` is at most :data:`MAX_SETTLE_TIME`; one at or after
+height below that bound.  ``settle_time`` is at most ``MAX_SETTLE_TIME`` (the scenarios'); one at or after
 ``t_end`` makes a run that only settles (a note when the config gives it).  A checkpoint ``<out>.ckpt`` holds the
 state before the jump and the save at its time (the 1-D format, :mod:`bsrflow.io.checkpoint`,
 with the n-D arrays), removed when the run finishes; ``--resume`` with the same config
@@ -63,6 +63,7 @@ import numpy as np
 from .checkpoint import Checkpoint, checkpoint_path
 from .config import ConfigError
 from .driver import OTHER_KIND, RunJob, RunOutcome, drive, first_difference
+from ..physics.motion import MAX_SETTLE_TIME
 
 __all__ = ["is_layer_config", "load_layer_config", "run_layer_config", "LayerOutcome"]
 
@@ -312,10 +313,6 @@ MAX_LAYER_CELLS = 1e7
 stay within a 24-GB machine."""
 
 
-MAX_SETTLE_TIME = 1e5
-"""The longest ``settle_time`` [s] a layer config accepts (the column's ``tap.start`` range).  A
-settle time at or after ``t_end`` is not refused: the run then only settles (a note says so when
-the config gives it), as a short run of the defaults does."""
 
 MAX_RESTING_CELLS = 10_000
 """The tallest resting layer of ``tapped_layer`` / ``vibrated_box`` [cells, at the crests of the
@@ -456,13 +453,8 @@ def _check_type(name, value, annotation, valid):
 
 
 def _check_layer_bounds(kind: str, kw: dict) -> None:
-    """The bounds of a layer config that its scenario class does not set (one line naming the
-    field): ``settle_time`` at most :data:`MAX_SETTLE_TIME`; a single tap's ``tap_period`` > 0
-    (the taps' motion refuses it, naming its own parameter)."""
-    st = kw.get("settle_time")
-    if st is not None and kind != "granular_bed" and not 0.0 <= st <= MAX_SETTLE_TIME:
-        raise ConfigError("layer.settle_time", f"{st!r} is outside the valid range "
-                          f"{_range_text(_RANGES[kind]['settle_time'])} (the floor rests until then)")
+    """The bound of a layer config that its scenario class leaves to the taps' motion, which names
+    its own parameter (``period``): a single tap's ``tap_period`` > 0, named as the config's key."""
     tp = kw.get("tap_period")
     if kind == "tapped_layer" and tp is not None and kw.get("n_taps", 1) == 1 and not tp > 0.0:
         raise ConfigError("layer.tap_period", f"{tp!r} is outside the valid range "
@@ -627,7 +619,6 @@ def _spec(kind: str, s, name: str):
     """The :class:`_Range` of field ``name`` of the layer ``s`` at its settings (its lower bound
     for the heights, the box and the CFL number; None for a field without one)."""
     spec = _RANGES[kind].get(name)
-    c = s.cells_per_diameter
     if name == "cfl":
         return _Range(0.0, 0.5 / s.dim, lo_open=True)
     if name == "domain_height":
@@ -635,8 +626,7 @@ def _spec(kind: str, s, name: str):
     if name == "bed_height":
         return _Range(2 * s.dx / (1.0 - s.surface_perturbation), _INF, "m")
     if name == "layer_height":           # round(H/Δx) (1 - δ) >= c + 1 (LayerSetup)
-        m_min = math.ceil((c + 1) / (1.0 - s.surface_perturbation) - 1e-9)
-        return _Range((m_min - 0.5 + 1e-6) * s.dx, _INF, "m")
+        return _Range((s.least_layer_cells() - 0.5 + 1e-6) * s.dx, _INF, "m")
     if name == "diameter":
         return _Range(0.0, _diameter_max(kind, s), "m", lo_open=True)
     return spec if isinstance(spec, _Range) else None
@@ -710,8 +700,7 @@ def _diameter_max(kind: str, s) -> float:
     c, delta = s.cells_per_diameter, s.surface_perturbation
     if kind == "packing_bed":
         return min(s.bed_height * (1.0 - delta) * c / 2.0, s.box_width * c / 3.0)
-    m_min = math.ceil((c + 1) / (1.0 - delta) - 1e-9)       # round(H/Δx) (1 - δ) >= c + 1 (LayerSetup)
-    return min(s.layer_height * c / (m_min - 0.5 + 1e-6), s.box_width * c / (c + 1.0))
+    return min(s.layer_height * c / (s.least_layer_cells() - 0.5 + 1e-6), s.box_width * c / (c + 1.0))
 
 
 def _diameter_range_text(kind: str, s) -> str | None:

@@ -51,6 +51,11 @@ __all__ = [
 ]
 
 
+MAX_SETTLE_TIME = 1e5
+"""The longest time [s] a 2-D / 3-D scenario's floor rests before it moves (``settle_time``; the
+column's ``tap.start`` range).  One at or after ``t_end`` is not refused: that run only settles."""
+
+
 @numba.njit(cache=True)
 def _rest_state(t, p):
     return 0.0, 0.0, 0.0

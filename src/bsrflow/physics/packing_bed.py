@@ -36,7 +36,7 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
-from .motion import SinusoidalVibration, check_frequency
+from .motion import MAX_SETTLE_TIME, SinusoidalVibration, check_frequency
 from .packing import impact_speed, stiffness_factor_for_mach
 
 __all__ = ["PackingBed"]
@@ -107,8 +107,9 @@ class PackingBed:
             raise ValueError(f"cells_per_diameter = {c!r} is outside the valid range: integers >= 1")
         if not (math.isfinite(self.gamma) and self.gamma >= 0.0):
             raise ValueError(f"gamma = {self.gamma!r} is outside the valid range [0, inf)")
-        if not (math.isfinite(self.settle_time) and self.settle_time >= 0.0):
-            raise ValueError(f"settle_time = {self.settle_time!r} is outside the valid range [0, inf) s")
+        if not (math.isfinite(self.settle_time) and 0.0 <= self.settle_time <= MAX_SETTLE_TIME):
+            raise ValueError(f"settle_time = {self.settle_time!r} is outside the valid range "
+                             f"[0, {MAX_SETTLE_TIME:.0f}] s")
         if not (math.isfinite(self.stiffness_factor) and 0.0 < self.stiffness_factor <= 1.0):
             raise ValueError(f"stiffness_factor = {self.stiffness_factor!r} is outside the valid range (0, 1]")
         if not (0.0 <= self.surface_perturbation <= 0.5):

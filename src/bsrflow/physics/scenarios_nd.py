@@ -71,7 +71,7 @@ from ..numerics.grid_nd import GridND, ball_quadrature
 from ..numerics.solver import Scheme
 from ..numerics.solver_nd import ResultND, SimulationND
 from .kernels_nd import BSRModelND, walton_braun_nd
-from .motion import HalfSineTaps, SinusoidalVibration, check_frequency
+from .motion import MAX_SETTLE_TIME, HalfSineTaps, SinusoidalVibration, check_frequency
 
 __all__ = ["LayerSetup", "TappedLayer", "VibratedBox", "ScenarioRun", "run_scenario", "resting_profile",
            "check_whole_cells"]
@@ -214,11 +214,11 @@ class LayerSetup:
         if not (0.0 <= self.surface_perturbation <= 0.5):
             raise ValueError(f"surface_perturbation = {self.surface_perturbation!r} is outside the valid "
                              "range [0, 0.5]")
-        if not (np.isfinite(self.settle_time) and self.settle_time >= 0):
-            raise ValueError(f"settle_time = {self.settle_time!r} is outside the valid range [0, inf) s")
+        if not (np.isfinite(self.settle_time) and 0 <= self.settle_time <= MAX_SETTLE_TIME):
+            raise ValueError(f"settle_time = {self.settle_time!r} is outside the valid range "
+                             f"[0, {MAX_SETTLE_TIME:.0f}] s")
         if self.layer_cells * (1.0 - self.surface_perturbation) < self.cells_per_diameter + 1:
-            # the smallest whole m with m (1 − δ) ≥ c + 1, and the least height that rounds to it
-            m_min = math.ceil((self.cells_per_diameter + 1) / (1.0 - self.surface_perturbation) - 1e-9)
+            m_min = self.least_layer_cells()
             raise ValueError(f"layer_height = {self.layer_height!r} m is outside the valid range: at least "
                              f"{(m_min - 0.5 + 1e-6) * self.dx:.4g} m ({m_min} cells of Δx = {self.dx:.4g} m: kernel "
                              "radius + 1 cell, also in the troughs of the surface undulation)")
@@ -250,6 +250,12 @@ class LayerSetup:
         shape = (nh,) * (self.dim - 1) + (nz,)
         return GridND(shape, self.dx, bc_horizontal=self.sides, bc_lower="floor", bc_upper="vacuum")
 
+
+    def least_layer_cells(self) -> int:
+        """The fewest cells m = round(H / Δx) the resting layer may have: m (1 − δ) ≥ c + 1 (the
+        kernel radius + 1 cell, also in the troughs of the surface undulation of amplitude δ);
+        the least height is then (m − ½) Δx."""
+        return math.ceil((self.cells_per_diameter + 1) / (1.0 - self.surface_perturbation) - 1e-9)
 
     @property
     def layer_cells(self) -> int:
