@@ -90,6 +90,50 @@ def test_compiled_step_matches_numpy(on_floor, friction):
     assert (r > 0) == on_floor
 
 
+def test_floor_restitution_enters_the_floors_loss_only():
+    """floor_restitution e_w: the floor's loss (1 − e_w) p √(2θ/π) with its own restitution, none
+    at e_w = 1; the spheres' loss and everything else unchanged; not given, the step is the one
+    with e_w = e bit for bit (the default path passes no e_w at all)."""
+    rng = np.random.default_rng(21)
+    s, mu, zf, vf, th, hist, k1 = _state(rng, on_floor=True)
+    k2 = k1 / s.restitution ** 2
+    dt, gl = 2e-6, s.gravity + 30.0
+    n = th.size
+
+    def step(*e_w):
+        z, v, t, hh = zf.copy(), vf.copy(), th.copy(), hist.copy()
+        flux = np.empty(n + 1)
+        r, status, bound = bed_step(z, v, t, hh, np.empty(n), np.empty(n), flux, np.empty(n + 1), dt, gl, mu,
+                                    s.density, s.diameter, s.restitution, s.phi_c, k1, k2, s.cfl,
+                                    s.contact_wave_speed(), s.restitution, *e_w)
+        assert status == 0 and r > 0
+        return z, v, t, hh, r, bound, flux
+
+    default, same, elastic, half = step(), step(s.restitution), step(1.0), step(0.5)
+    for a, b in zip(default, same):
+        assert np.array_equal(a, b)
+    assert elastic[6][0] == 0.0 and same[6][0] < 0.0
+    assert half[6][0] == pytest.approx(same[6][0] * 0.5 / (1.0 - s.restitution), rel=1e-12)
+    for k in (0, 1, 3):                                    # faces, velocities, history: the loss is θ's only
+        assert np.array_equal(elastic[k], same[k])
+    assert elastic[2][0] > same[2][0] and np.array_equal(elastic[2][2:], same[2][2:])
+    ref = bed_step_numpy(zf, vf, th, hist, dt, gl, mu, s.density, s.diameter, s.restitution, s.phi_c, k1, k2,
+                         s.restitution, 0.5)
+    for a, b in zip(half[:5], ref):
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-300)
+    # the setup's values: e itself unless given, friction's effective part on either
+    assert BedSetup().floor_dissipation_restitution == BedSetup().dissipation_restitution == 0.9
+    assert BedSetup(floor_restitution=1.0).floor_dissipation_restitution == 1.0
+    f = BedSetup(friction=0.5, floor_restitution=1.0)
+    assert f.floor_dissipation_restitution == pytest.approx(1.0 - 0.75 * math.exp(-1.5))
+    # a whole run: not given and given as e are the same run bit for bit
+    a = run_bed(BedSetup(gamma=3.0, cycles=2, n_cells=24))
+    b = run_bed(BedSetup(gamma=3.0, cycles=2, n_cells=24, floor_restitution=0.9))
+    assert a.steps == b.steps and np.array_equal(a.mass_centre, b.mass_centre)
+    c = run_bed(BedSetup(gamma=3.0, cycles=2, n_cells=24, floor_restitution=1.0))
+    assert not np.array_equal(a.mass_centre, c.mass_centre)
+
+
 def test_resting_bed_is_held_by_its_weight_and_the_floor_never_pulls():
     s = BedSetup(gamma=0.0, cycles=2, n_cells=40, theta_seed=0.0)
     r = run_bed(s)
@@ -106,6 +150,9 @@ def test_resting_bed_is_held_by_its_weight_and_the_floor_never_pulls():
 
 
 @pytest.mark.parametrize("kw, field", [(dict(restitution=1.0), "restitution"), (dict(gamma=-1.0), "gamma"),
+                                       (dict(floor_restitution=0.0), "floor_restitution"),
+                                       (dict(floor_restitution=1.5), "floor_restitution"),
+                                       (dict(floor_restitution=True), "floor_restitution"),
                                        (dict(n_cells=2), "n_cells"), (dict(cfl=0.9), "cfl"),
                                        (dict(phi_c=0.8), "phi_c"), (dict(side=0.0), "side")])
 def test_bed_setup_refuses_bad_values_in_one_line(kw, field):
@@ -295,6 +342,25 @@ def test_granular_bed_runs_from_a_config_as_compare_bed_runs_it(tmp_path):
                                                    "state_solid_fraction", "state_floor_force")}
     assert units == {"rho": "kg m-1", "u_z": "m s-1", "state_theta": "m2 s-2", "state_face_height": "m",
                      "state_solid_fraction": "1", "state_floor_force": "N"}
+
+
+def test_granular_bed_config_takes_the_floor_restitution(tmp_path, capsys):
+    """``floor_restitution`` in a granular-bed config: the run of BedSetup(floor_restitution=...)
+    bit for bit; out of range or not a number: one line naming it with its range, exit 2."""
+    from bsrflow.io.netcdf import read_snapshots
+    cfg = tmp_path / "bed.toml"
+    cfg.write_text(GRANULAR_CONFIG.replace("settle = 0.005\n", "settle = 0.005\nfloor_restitution = 1.0\n"))
+    out = tmp_path / "bed.nc"
+    assert main(["run", str(cfg), "--out", str(out)]) == 0
+    data, _ = read_snapshots(out)
+    ref = run_bed(BedSetup(gamma=3.0, cycles=2, n_cells=40, save_every=0.001, settle=0.005, floor_restitution=1.0))
+    np.testing.assert_array_equal(data["state_floor_force"], ref.floor_force)
+    for bad in ("1.5", "0", '"x"'):
+        cfg.write_text(GRANULAR_CONFIG.replace("settle = 0.005\n", f"settle = 0.005\nfloor_restitution = {bad}\n"))
+        capsys.readouterr()
+        assert main(["run", str(cfg), "--out", str(tmp_path / "bad.nc")]) == 2
+        err = capsys.readouterr().err.strip()
+        assert "\n" not in err and "layer.floor_restitution" in err and "(0, 1]" in err
 
 
 def test_friction_enters_as_the_losses_effective_restitution():
@@ -675,3 +741,15 @@ def test_compare_bed_compares_each_main_run_with_the_spring_dashpot_bed_too(tmp_
     assert big[0]["flight_time_s"] == main_case["flight_time_s"] and "temperature" not in big[0]
     assert big[0]["dem_flight_time_s"] == pytest.approx(0.02693, abs=5e-5)    # its summary's last six flights
     assert math.isfinite(big[0]["mass_centre_rms_over_d"])
+    # and with the main bed's elastic-floor twin: the continuum run again with floor_restitution 1
+    ef = data["elastic_floor_cases"]
+    assert [c["gamma"] for c in ef] == [3.0] and ef[0]["floor_restitution"] == 1.0 and "floor_restitution" not in main_case
+    assert ef[0]["steps"] != main_case["steps"] or ef[0]["flight_time_s"] != main_case["flight_time_s"]
+    assert ef[0]["dem_flight_time_s"] == pytest.approx(0.02530, abs=5e-5)     # the committed elastic-floor run
+    (fx,) = data["floor_contact_effect"]
+    assert fx["dem_flight_time_s"] == {"floor_e": main_case["dem_flight_time_s"], "floor_elastic": ef[0]["dem_flight_time_s"]}
+    assert fx["continuum_flight_time_s"]["floor_elastic"] == ef[0]["flight_time_s"]
+    assert fx["dem_change_rel"] == pytest.approx(0.02530 / 0.02720 - 1.0, abs=3e-3)
+    # the two LIGGGHTS beds' mass centres over the same five cycles: apart by far less than their flights
+    assert 0.0 < fx["dem_mass_centre_rms_between_beds_over_d"] < 0.1
+    assert "floor_contact_note" in data

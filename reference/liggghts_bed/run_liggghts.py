@@ -11,6 +11,7 @@ reduces its output into small CSV/JSON files next to this script:
   python reference/liggghts_bed/run_liggghts.py --gamma 3 --model hooke            # its control
   python reference/liggghts_bed/run_liggghts.py --gamma 1.5 2 2.5 3.5 4 4.5 5 5.5 6 6.5 7 7.5 8 --model hooke
   python reference/liggghts_bed/run_liggghts.py --gamma 4 --restitution 0.5       # exploratory
+  python reference/liggghts_bed/run_liggghts.py --gamma 2 2.5 3 3.5 4 4.5 6 --floor-restitution 1  # elastic floor contacts
   python reference/liggghts_bed/run_liggghts.py --settle --n 10000 --lateral 29
   python reference/liggghts_bed/run_liggghts.py --gamma 3 --n 10000 --lateral 29
   python reference/liggghts_bed/run_liggghts.py --summary          # flight_vs_gamma.csv
@@ -50,6 +51,7 @@ CYCLES_STARTUP = 3
 CYCLES_MEASURED = 8
 FORCE_EVERY = 10                # floor force / overlap sampling [steps]
 SEED = 12345
+E_FLOOR = None        # restitution of the sphere-floor contacts when it differs from E_REST (--floor-restitution)
 
 MASS = RHO * math.pi * D ** 3 / 6.0
 VOL = math.pi * D ** 3 / 6.0
@@ -115,10 +117,11 @@ def deck_contact(model: str, mu: float) -> str:
             raise SystemExit("edinburgh/stiffness in LIGGGHTS 3.8.0 has no friction without "
                              "a dashpot; use --model hooke for friction")
         r = 1.0 / E_REST ** 2
+        rw = r if E_FLOOR is None else 1.0 / E_FLOOR ** 2      # the sphere-floor pairs (1-2, 2-1)
         return f"""
 # Walton-Braun: linear loading K, unloading K/e^2, no dashpot, no adhesion
 fix m1 all property/global LoadingStiffness peratomtypepair 2 {k:.10g} {k:.10g} {k:.10g} {k:.10g}
-fix m2 all property/global UnloadingStiffness peratomtypepair 2 {r:.10g} {r:.10g} {r:.10g} {r:.10g}
+fix m2 all property/global UnloadingStiffness peratomtypepair 2 {r:.10g} {rw:.10g} {rw:.10g} {r:.10g}
 fix m3 all property/global coefficientRestitution peratomtypepair 2 1.0 1.0 1.0 1.0
 fix m4 all property/global overlapExponent scalar 1.0
 fix m5 all property/global adhesionExponent scalar 1.0
@@ -135,6 +138,9 @@ pair_coeff      * *
         def gam(meff):  # absolute dashpot coefficient for restitution e
             return 2.0 * math.sqrt(meff * k) * (-ln) / math.sqrt(math.pi ** 2 + ln * ln)
         g11, g12 = gam(MASS / 2.0), gam(MASS)
+        if E_FLOOR is not None:             # the sphere-floor dashpot for its own restitution
+            ln = math.log(E_FLOOR)
+            g12 = gam(MASS)
         kt = 2.0 / 7.0 * k
         tang = "history" if mu > 0 else "no_history"
         return f"""
@@ -696,6 +702,8 @@ run {nsteps}
             "steps": nsteps, "steps_per_dump": ndump, "cycles_startup": cycles_startup,
             "cycles_measured": cycles_measured, "wall_time_s": wall, "cpu_time_s": LAST_CPU[0],
             "loop_time_s": loop_time(wd / "log.vibrate")}
+    if E_FLOOR is not None:
+        meta["floor_restitution"] = E_FLOOR
     (wd / "meta.json").write_text(json.dumps(meta, indent=2))
     return postprocess(name)
 
@@ -729,6 +737,8 @@ def run_name(gamma, n, lateral, model, mu) -> str:
         s += f"_{model}"
     if mu > 0:
         s += f"_mu{mu:g}"
+    if E_FLOOR is not None:
+        s += f"_ew{E_FLOOR:g}"
     return s
 
 
@@ -979,9 +989,10 @@ def gap_flight(out: Path) -> dict:
     return s
 
 
-def write_flight_table(path: Path, main: list, e_val: float) -> None:
+def write_flight_table(path: Path, main: list, e_val: float, e_floor: float | None = None) -> None:
+    floor = "" if e_floor is None else f", sphere-floor e={e_floor:g}"
     with open(path, "w") as f:
-        f.write(f"# N=2000, {main[0]['model']}, friction {main[0]['friction']:g}, e={e_val:g};"
+        f.write(f"# N=2000, {main[0]['model']}, friction {main[0]['friction']:g}, e={e_val:g}{floor};"
                 " flight times of the measured cycles\n")
         f.write("gamma,flight_time_mean_s,flight_time_mean_over_T,flight_time_even_s,flight_time_odd_s,"
                 "even_odd_split,sign_alternation_fraction,period_doubled,com_period2,"
@@ -1007,17 +1018,18 @@ def summary() -> None:
         s = gap_flight(p.parent)
         rows.append(s)
     pdg_by_e = {}
-    groups = (("walton_braun", 0.0, 0.9, "flight_vs_gamma.csv", "0.9"),
-              ("walton_braun", 0.0, 0.5, "flight_vs_gamma_e0.5.csv", "0.5"),
-              ("hooke", 0.5, 0.9, "flight_vs_gamma_hooke_mu0.5.csv", "hooke_mu0.5"),
-              ("hooke", 0.0, 0.9, "flight_vs_gamma_hooke.csv", "hooke"))
-    for model_, mu_, e_val, fname, key in groups:
+    groups = (("walton_braun", 0.0, 0.9, "flight_vs_gamma.csv", "0.9", None),
+              ("walton_braun", 0.0, 0.5, "flight_vs_gamma_e0.5.csv", "0.5", None),
+              ("hooke", 0.5, 0.9, "flight_vs_gamma_hooke_mu0.5.csv", "hooke_mu0.5", None),
+              ("hooke", 0.0, 0.9, "flight_vs_gamma_hooke.csv", "hooke", None),
+              ("walton_braun", 0.0, 0.9, "flight_vs_gamma_ew1.csv", "ew1", 1.0))
+    for model_, mu_, e_val, fname, key, e_floor in groups:
         main = [s for s in rows if s["n"] == 2000 and s["model"] == model_ and s["friction"] == mu_
-                and s.get("restitution", 0.9) == e_val]
+                and s.get("restitution", 0.9) == e_val and s.get("floor_restitution") == e_floor]
         if not main:
             continue
         main.sort(key=lambda s: s["gamma"])
-        write_flight_table(OUT / fname, main, e_val)
+        write_flight_table(OUT / fname, main, e_val, e_floor)
         pd_g = [s["gamma"] for s in main if s["period_doubled_last6"]]
         below = [s["gamma"] for s in main if not s["period_doubled_last6"] and (not pd_g or s["gamma"] < min(pd_g))]
         pdg = None
@@ -1036,10 +1048,12 @@ def summary() -> None:
     # the frictionless spring-dashpot bed (the friction runs' control law) over Gamma, since 2026-12-04
     params["period_doubling_gamma_spring_dashpot"] = pdg_by_e.get("hooke", {}).get("period_doubling")
     params["gamma_list_spring_dashpot"] = pdg_by_e.get("hooke", {}).get("gammas")
+    # the Walton-Braun bed with elastic sphere-floor contacts (--floor-restitution 1), since 2026-12-04
+    params["gamma_list_elastic_floor"] = pdg_by_e.get("ew1", {}).get("gammas")
     params["period_doubling_note"] = ("main runs (e=0.9, frictionless): no period doubling for 1.5 <= Gamma <= 6 "
                                       "(null); e=0.5 runs are exploratory (same settled bed, same K and dt)")
     params["runs"] = [{k: s.get(k) for k in ("name", "gamma", "n", "lateral_d", "model", "friction", "restitution",
-                                         "wall_time_s", "cpu_time_s", "loop_time_s", "steps", "flight_time_mean_s",
+                                         "floor_restitution", "wall_time_s", "cpu_time_s", "loop_time_s", "steps", "flight_time_mean_s",
                                          "flight_time_mean_last6_s", "gap_flight_time_mean_last6_s",
                                          "period_doubled", "period_doubled_last6", "com_period2",
                                          "max_overlap_pair_over_d",
@@ -1092,7 +1106,7 @@ def write_params(extra: dict) -> None:
 
 
 def main(argv=None):
-    global E_REST, WORK, RESULTS, OUT
+    global E_REST, E_FLOOR, WORK, RESULTS, OUT
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--check", action="store_true", help="single-sphere / two-sphere contact checks")
     ap.add_argument("--settle", action="store_true", help="pour and settle the bed")
@@ -1105,6 +1119,9 @@ def main(argv=None):
     ap.add_argument("--measured", type=int, default=CYCLES_MEASURED)
     ap.add_argument("--restitution", type=float, default=E_REST,
                     help="e for the vibration run (exploratory; the settled bed is the e=0.9 one)")
+    ap.add_argument("--floor-restitution", type=float, metavar="E",
+                    help="e of the sphere-floor contacts only (default: --restitution's); the runs' folders "
+                         "end in _ew<E>")
     ap.add_argument("--post", metavar="RUN", help="re-run the post-processing of work/RUN")
     ap.add_argument("--summary", action="store_true")
     ap.add_argument("--settle-post", action="store_true", help="redo the packing statistics")
@@ -1120,7 +1137,10 @@ def main(argv=None):
     if not (0.0 <= a.friction and 0.0 < a.restitution <= 1.0):
         ap.error(f"argument --friction / --restitution: {a.friction!r} / {a.restitution!r} is outside the valid "
                  "range [0, inf) / (0, 1]")
+    if a.floor_restitution is not None and not (0.0 < a.floor_restitution <= 1.0):
+        ap.error(f"argument --floor-restitution: {a.floor_restitution!r} is outside the valid range (0, 1]")
     E_REST = a.restitution
+    E_FLOOR = a.floor_restitution
     if a.root:
         OUT = Path(a.root).resolve()
         WORK, RESULTS = OUT / "work", OUT / "results"
@@ -1142,7 +1162,7 @@ def main(argv=None):
         write_params({f"settled_{tag(a.n, a.lateral)}": res})
         print(json.dumps(res, indent=2))
     if a.gamma:
-        if E_REST == 0.9:
+        if E_REST == 0.9 and E_FLOOR is None:
             write_params({})
         for g in a.gamma:
             s = vibrate(g, a.n, a.lateral, a.model, a.friction, a.startup, a.measured)

@@ -20,6 +20,9 @@ The exploratory e = 0.5 runs and the frictional runs (μ = 0.5, spring–dashpot
 compared too, and each main case's continuum run also with the frictionless spring–dashpot bed
 at the same Γ (``spring_dashpot_cases``: the same K and e, another contact law), and the Γ = 3
 run with the reference's lateral-size run (``large_box_cases``: N = 10 000 in a 29 d box).  The
+main bed with elastic sphere–floor contacts (``elastic_floor_cases``, at the Γ it was run) is
+compared with the continuum whose floor loss is elastic too (``floor_restitution`` = 1), and
+``floor_contact_effect`` gives, per Γ, what the floor's restitution alone changes in either.  The
 frictional runs twice: against the smooth continuum at Γ = 3 (the effect of friction, reported,
 not tuned away) and against the continuum with friction μ = 0.5, which
 enters only as the collisional losses' effective restitution e − (3/2)μ exp(−3μ) (Chialvo and
@@ -204,6 +207,7 @@ def _case_against(run, setup: BedSetup, ref: Path, tag: str):
     takeoff, landing = flight_phases(flights, s.period, s.cycles)
     t_startup = (STARTUP_CYCLES - 1e-9) * s.period     # the sample at 3T included (3 * 0.05 > 0.15 in floats)
     case = {"gamma": s.gamma, "restitution": s.restitution, "friction": s.friction,
+            **({} if s.floor_restitution is None else {"floor_restitution": s.floor_restitution}),
             "flight_time_s": float(np.mean(last6)), "flight_time_per_cycle_s": tau.tolist(),
             "period_doubled": period_doubling_measure(last6)["period_doubled"],
             "wall_time_s": res.wall_time, "steps": res.steps,
@@ -437,6 +441,10 @@ LARGE_BOX = "N10000_L29d"
 """The tag of the reference's lateral-size run: N = 10 000 spheres in a 29 d × 29 d box, the same
 depth per area, law and Γ = 3."""
 LARGE_BOX_RUNS = "LIGGGHTS Walton-Braun, N = 10 000 in a 29 d box"
+ELASTIC_FLOOR = "N2000_L13d_ew1"
+"""The tag of the main bed with elastic sphere–floor contacts (Walton–Braun, e = 0.9 between the
+spheres, unloading stiffness K at the floor: e_w = 1; ``--floor-restitution 1``)."""
+ELASTIC_FLOOR_RUNS = "LIGGGHTS Walton-Braun, elastic sphere-floor contacts; the continuum with floor_restitution 1"
 
 MODEL = ("packing stress + granular temperature (bsrflow.physics.granular_bed), horizontally uniform bed "
          "(1-D limit of the 3-D bed)")
@@ -453,7 +461,7 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
     ref = Path(reference)
     known, params, base = reference_bed(ref, n_cells)
     gammas = [float(g) for g in (known if gammas is None else gammas)]
-    cases, runs, extra, long_runs, spring_dashpot, large_box = [], {}, [], [], [], []
+    cases, runs, extra, long_runs, spring_dashpot, large_box, elastic_floor = [], {}, [], [], [], [], []
     # (kind, setup, reference tag, list it joins, what the reference run is)
     tasks = [("case", base.with_(gamma=g), MAIN_RUNS, cases, None) for g in gammas]
     if include_extra:
@@ -468,6 +476,8 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                   for g in [float(x) for x in np.atleast_1d(fric["gamma"])]]
         tasks += [("long", base.with_(gamma=g, friction=FRICTION, cycles=LONG_CYCLES), None, long_runs, None)
                   for g in LONG_FRICTION_GAMMAS]
+        tasks += [("case", base.with_(gamma=float(g), floor_restitution=1.0), ELASTIC_FLOOR, elastic_floor,
+                   ELASTIC_FLOOR_RUNS) for g in params.get("gamma_list_elastic_floor") or [] if float(g) in gammas]
 
     def finish(task, got):
         kind, setup, _, into, dem = task
@@ -516,7 +526,7 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
     except (KeyboardInterrupt, SimulationError) as exc:
         exc.partial = {"model": MODEL, "fitted_constants": {}, "n_cells": n_cells, "cases": cases,
                        "extra_cases": extra, "spring_dashpot_cases": spring_dashpot, "large_box_cases": large_box,
-                       f"friction_{LONG_CYCLES}_cycles_runs": long_runs}
+                       "elastic_floor_cases": elastic_floor, f"friction_{LONG_CYCLES}_cycles_runs": long_runs}
         raise
     g3 = next((c for c in cases if c["gamma"] == 3.0), None)
     out = {
@@ -545,6 +555,13 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                            "29 d x 29 d box, the same spheres per area, law and settling; Gamma = 3): the horizontally "
                            "uniform continuum is the same for both boxes, so the difference between the two references "
                            "is the DEM's own box-size effect"),
+        "elastic_floor_cases": elastic_floor,
+        "floor_contact_effect": _floor_contact_effect(cases, elastic_floor, ref, base),
+        "floor_contact_note": ("the sphere-floor contacts' restitution alone changed, 0.9 -> 1 (elastic), in LIGGGHTS "
+                               "(Walton-Braun, the main bed's settled packing) and in the continuum (floor_restitution: "
+                               "its floor's collisional loss only): the flights of both, and the RMS difference of the "
+                               "two LIGGGHTS beds' mass-centre heights over the same five cycles as "
+                               "mass_centre_rms_over_d"),
         "period_doubling_gamma": {
             "continuum": _doubling_gamma([c["gamma"] for c in cases], [c["period_doubled"] for c in cases]),
             "dem": (params.get("period_doubling_gamma") or {}).get("estimate"),
@@ -579,10 +596,38 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
     }
     if not include_extra:
         for key in ("period_doubling_gamma_friction_mu0.5", "spring_dashpot_cases", "spring_dashpot_note",
-                    "period_doubling_gamma_spring_dashpot", "large_box_cases", "large_box_note"):
+                    "period_doubling_gamma_spring_dashpot", "large_box_cases", "large_box_note",
+                    "elastic_floor_cases", "floor_contact_effect", "floor_contact_note"):
             del out[key]
     if figures:
         _figures(out, runs, base, Path(figures), ref)
+    return out
+
+
+def _floor_contact_effect(cases, elastic_floor, ref: Path, s: BedSetup) -> list:
+    """Per Γ with both runs: the flights with the floor's restitution e and 1 (LIGGGHTS and the
+    continuum), their relative changes, and the RMS difference [d] of the two LIGGGHTS beds'
+    mass-centre heights over the window of ``mass_centre_rms_over_d`` (3T <= t < 8T)."""
+    main = {c["gamma"]: c for c in cases}
+    out = []
+    for el in elastic_floor:
+        g = el["gamma"]
+        c = main.get(g)
+        if c is None or "dem_flight_time_s" not in c or "dem_flight_time_s" not in el:
+            continue
+        a, _ = _reference_case(ref, g, MAIN_RUNS)
+        b, _ = _reference_case(ref, g, ELASTIC_FLOOR)
+        period = 1.0 / s.frequency
+        rms = None
+        if a is not None and b is not None and len(a) == len(b) and np.array_equal(a["t_s"], b["t_s"]):
+            sel = (a["t_s"] >= (STARTUP_CYCLES - 1e-9) * period) & (a["t_s"] < (STARTUP_CYCLES + 5 - 1e-9) * period)
+            rms = float(math.sqrt(np.mean((a["com_rel_m"][sel] - b["com_rel_m"][sel]) ** 2)) / s.diameter)
+        out.append({"gamma": g,
+                    "dem_flight_time_s": {"floor_e": c["dem_flight_time_s"], "floor_elastic": el["dem_flight_time_s"]},
+                    "continuum_flight_time_s": {"floor_e": c["flight_time_s"], "floor_elastic": el["flight_time_s"]},
+                    "dem_change_rel": el["dem_flight_time_s"] / c["dem_flight_time_s"] - 1.0,
+                    "continuum_change_rel": el["flight_time_s"] / c["flight_time_s"] - 1.0,
+                    "dem_mass_centre_rms_between_beds_over_d": rms})
     return out
 
 
@@ -678,7 +723,7 @@ def _figures(out, runs, base, folder, ref=REFERENCE):
 
     d = base.diameter
     cases = out["cases"]
-    fig, ax = plt.subplots(figsize=(6, 4))
+    fig, ax = plt.subplots(figsize=(10, 4.5))
     g = [c["gamma"] for c in cases]
     ax.plot(g, [1e3 * c["flight_time_s"] for c in cases], "o-", label="continuum, e = 0.9")
     ax.plot(g, [1e3 * c.get("dem_flight_time_s", np.nan) for c in cases], "s--", label="LIGGGHTS Walton–Braun, e = 0.9")
@@ -690,6 +735,12 @@ def _figures(out, runs, base, folder, ref=REFERENCE):
     if big:
         ax.plot([c["gamma"] for c in big], [1e3 * c.get("dem_flight_time_s", np.nan) for c in big], "*", color="C1",
                 ms=10, label="LIGGGHTS Walton–Braun, N = 10 000 (29 d box)")
+    ef = out.get("elastic_floor_cases") or []
+    if ef:
+        ax.plot([c["gamma"] for c in ef], [1e3 * c["flight_time_s"] for c in ef], "o:", color="C0", mfc="none",
+                label="continuum, elastic floor (e_w = 1)")
+        ax.plot([c["gamma"] for c in ef], [1e3 * c.get("dem_flight_time_s", np.nan) for c in ef], "s:", color="C1",
+                mfc="none", label="LIGGGHTS Walton–Braun, elastic floor contacts")
     e05 = [c for c in out["extra_cases"] if c["restitution"] == 0.5]
     if e05:
         ax.plot([c["gamma"] for c in e05], [1e3 * c["flight_time_s"] for c in e05], "^-", label="continuum, e = 0.5")
@@ -707,7 +758,7 @@ def _figures(out, runs, base, folder, ref=REFERENCE):
     ax.set_xlabel("Γ = aω²/g")
     ax.set_ylabel("flight time per cycle [ms] (last six cycles)")
     ax.set_title("Vibrated bed, f = 20 Hz: flight time against Γ")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
     fig.savefig(folder / "bed_flight_vs_gamma.png", dpi=120)
     plt.close(fig)
@@ -847,7 +898,8 @@ def _finish_profile_figure(fig, first_panel, title, path, plt):
 def format_table(out) -> str:
     rows = ["| Γ | flight continuum [ms] | flight LIGGGHTS [ms] | difference | mass-centre RMS [d] | period doubled "
             "(continuum / LIGGGHTS) |", "|---|---|---|---|---|---|"]
-    for c in out["cases"] + out["extra_cases"] + out.get("spring_dashpot_cases", []) + out.get("large_box_cases", []):
+    for c in (out["cases"] + out["extra_cases"] + out.get("spring_dashpot_cases", []) + out.get("large_box_cases", [])
+              + out.get("elastic_floor_cases", [])):
         name = f"{c['gamma']:g}" + ("" if "dem" not in c else f" ({c['dem']})")
         rows.append(f"| {name} | {1e3 * c['flight_time_s']:.1f} | {1e3 * c.get('dem_flight_time_s', float('nan')):.1f} | "
                     f"{100 * c.get('flight_time_rel_diff', float('nan')):+.1f} % | "
@@ -867,7 +919,7 @@ def add_parser(sub):
                    help="only these Γ of the main runs (default: every Γ of the LIGGGHTS runs, 1.5 to 8)")
     p.add_argument("--cells", type=int, default=200, metavar="N", help="Lagrangian cells over the bed (default 200)")
     p.add_argument("--no-extra", action="store_true",
-                   help="skip the e = 0.5, friction, spring-dashpot and 10 000-sphere comparisons")
+                   help="skip the e = 0.5, friction, spring-dashpot, 10 000-sphere and elastic-floor comparisons")
     p.add_argument("--workers", type=int, default=1, metavar="N",
                    help="run the continuum's runs on N processes (default 1; at most 4 per CPU); the same numbers, "
                         "the wall times then those of a shared machine")
@@ -934,6 +986,13 @@ def _main(args) -> int:
         print(f"period-doubling Γ with friction {FRICTION:g}: continuum {gamma_text(pf['continuum'])} (11 cycles), "
               f"{gamma_text(pf[f'continuum_{LONG_CYCLES}_cycles'])} ({LONG_CYCLES} cycles); LIGGGHTS "
               f"{gamma_text(pf['dem'])}")
+    for f in out.get("floor_contact_effect") or []:
+        dem, cont = f["dem_flight_time_s"], f["continuum_flight_time_s"]
+        rms = f["dem_mass_centre_rms_between_beds_over_d"]
+        print(f"floor contacts elastic instead of e = 0.9, Γ = {f['gamma']:g}: LIGGGHTS flight {1e3 * dem['floor_e']:.1f} -> "
+              f"{1e3 * dem['floor_elastic']:.1f} ms ({100 * f['dem_change_rel']:+.1f} %, mass centre moved "
+              f"{'n/a' if rms is None else f'{rms:.3f} d'} RMS), continuum {1e3 * cont['floor_e']:.1f} -> "
+              f"{1e3 * cont['floor_elastic']:.1f} ms ({100 * f['continuum_change_rel']:+.1f} %)")
     psd = out.get("period_doubling_gamma_spring_dashpot")
     if psd is not None:
         print(f"period-doubling Γ against the spring-dashpot bed: continuum {gamma_text(psd['continuum'])}, "

@@ -19,7 +19,7 @@ continuum (:class:`bsrflow.numerics.packing_nd.EulerianPackingND`) into the same
 checkpoint holds the discretisation's named fields (history included).
 
 ``kind = "granular_bed"`` (:class:`bsrflow.physics.granular_bed.BedSetup`: its fields, e.g.
-``gamma``, ``cycles``, ``n_cells``, ``output_height``) runs the vibrated bed of packing stress
+``gamma``, ``cycles``, ``n_cells``, ``output_height``, ``floor_restitution``) runs the vibrated bed of packing stress
 and granular temperature that ``bsrflow compare-bed`` compares with LIGGGHTS, horizontally
 uniform, on its Lagrangian cells (:class:`bsrflow.numerics.bed_lagrangian.GranularBedColumn`):
 snapshots every ``save_every`` = 1 ms unless given (compare-bed's 0.1 ms would make 118 MB for
@@ -427,6 +427,7 @@ _RANGES = {
         "save_every": _Range(0, 1, "s", lo_open=True),
         "output_height": _Range(0, 100, "m", lo_open=True,
                                 note="(or not given: the rest height + (3aω)²/(2g) + 10 d)"),
+        "floor_restitution": _Range(0, 1, lo_open=True, note="(or not given: the spheres' restitution)"),
     },
 }
 """Each kind's fields' valid ranges, as its one-line errors state them (the scenario classes check

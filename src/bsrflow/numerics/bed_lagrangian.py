@@ -52,11 +52,12 @@ __all__ = ["GranularBedColumn", "bed_step", "bed_advance", "stable_dt", "bed_ste
 
 
 @numba.njit(cache=True, error_model="numpy")
-def bed_step(zf, vf, th, hist, sig, pq, flux, cond, dt, gl, mu, rho_s, d, e, phi_c, k1, k2, cfl, c, e_d):
+def bed_step(zf, vf, th, hist, sig, pq, flux, cond, dt, gl, mu, rho_s, d, e, phi_c, k1, k2, cfl, c, e_d, e_w=-1.0):
     """One step (module docstring), in place; ``sig``, ``pq`` (n), ``flux``, ``cond`` (n + 1) are
     work arrays (``cond`` holds ζ_j/s_j until the conduction overwrites it); e_d the restitution of
-    the two collisional losses (the spheres' and the floor's;
-    :attr:`BedSetup.dissipation_restitution`, e without friction).  Returns (floor reaction R
+    the spheres' collisional loss and, unless ``e_w`` ≥ 0 is given, of the floor's
+    (:attr:`BedSetup.dissipation_restitution`, e without friction; ``e_w``:
+    :attr:`BedSetup.floor_dissipation_restitution`).  Returns (floor reaction R
     [Pa], status, Δt bound [s]); status 1: a cell's
     thickness reached 0.  The bound, the next step's Δt, is the smallest over the cells of the
     contact wave's cfl s_j/c and half the explicit limits of the viscous stress, μ s_j/(2ζ_j),
@@ -111,7 +112,7 @@ def bed_step(zf, vf, th, hist, sig, pq, flux, cond, dt, gl, mu, rho_s, d, e, phi
     flux[0] = 0.0
     cond[0] = 0.0
     if reaction > 0.0:
-        flux[0] = -wall_loss(mu / (rho_s * (zf[1] - zf[0])), th[0], rho_s, e, e_d)
+        flux[0] = -wall_loss(mu / (rho_s * (zf[1] - zf[0])), th[0], rho_s, e, e_d if e_w < 0.0 else e_w)
     flux[n] = 0.0
     cond[n] = 0.0
     for f in range(1, n):
@@ -181,13 +182,14 @@ def stable_dt(zf, th, mu, rho_s, d, e, cfl, c):
 
 @numba.njit(cache=True, error_model="numpy")
 def bed_advance(zf, vf, th, hist, t, t_stop, dt_next, mu, rho_s, d, e, phi_c, k1, k2, g, amp, w, moving,
-                counters, cfl, c, e_d, max_steps):
+                counters, cfl, c, e_d, max_steps, e_w=-1.0):
     """Steps from t towards t_stop, each with the bound its previous step returned
     (``dt_next[0]``: in, the first step's; out, the bound after the last step), at most
     ``max_steps`` of them (the caller calls again until t = t_stop: the same steps as one call,
     and Ctrl-C / SIGTERM handled in between); the floor ϑ = a sin ωt when ``moving``
     (g_l = g − a ω² sin ωt), at rest otherwise.  counters: [steps, status]; returns (t, last
-    floor reaction [Pa])."""
+    floor reaction [Pa]).  ``e_w`` ≥ 0: the floor's loss restitution when it is not ``e_d``
+    (:func:`bed_step`)."""
     n = th.shape[0]
     sig = np.empty(n)
     pq = np.empty(n)
@@ -204,7 +206,7 @@ def bed_advance(zf, vf, th, hist, t, t_stop, dt_next, mu, rho_s, d, e, phi_c, k1
             last = True
         gl = g - amp * w * w * math.sin(w * t) if moving else g
         reaction, status, bound = bed_step(zf, vf, th, hist, sig, pq, flux, cond, dt, gl, mu, rho_s, d, e, phi_c,
-                                           k1, k2, cfl, c, e_d)
+                                           k1, k2, cfl, c, e_d, e_w)
         dt_next[0] = bound
         counters[0] += 1
         t = t_stop if last else t + dt
@@ -214,10 +216,11 @@ def bed_advance(zf, vf, th, hist, t, t_stop, dt_next, mu, rho_s, d, e, phi_c, k1
     return t, reaction
 
 
-def bed_step_numpy(zf, vf, th, hist, dt, gl, mu, rho_s, d, e, phi_c, k1, k2, e_d=None):
+def bed_step_numpy(zf, vf, th, hist, dt, gl, mu, rho_s, d, e, phi_c, k1, k2, e_d=None, e_w=None):
     """Plain NumPy twin of :func:`bed_step` (copies; returns (zf, vf, th, hist, reaction));
-    ``e_d`` the losses' restitution (None: e)."""
+    ``e_d`` the losses' restitution (None: e), ``e_w`` the floor's (None: e_d)."""
     e_d = e if e_d is None else e_d
+    e_w = e_d if e_w is None else e_w
     zf, vf, th, hist = (np.array(a, dtype=float) for a in (zf, vf, th, hist))
     n = th.size
     s = np.diff(zf)
@@ -247,7 +250,7 @@ def bed_step_numpy(zf, vf, th, hist, dt, gl, mu, rho_s, d, e, phi_c, k1, k2, e_d
         t0 = max(th[0], 0.0)
         p0 = phi_new[0]
         p_kin = constitutive_numpy(p0, t0, rho_s, d, e)["p"]
-        flux[0] = -(1.0 - e_d) * p_kin * np.sqrt(2.0 * t0 / np.pi)
+        flux[0] = -(1.0 - e_w) * p_kin * np.sqrt(2.0 * t0 / np.pi)
     phi_f = 0.5 * (phi_new[:-1] + phi_new[1:])
     t_f = 0.5 * (np.maximum(th[:-1], 0.0) + np.maximum(th[1:], 0.0))
     flux[1:n] = -constitutive_numpy(phi_f, t_f, rho_s, d, e)["kappa"] * np.diff(th) / (0.5 * (s[:-1] + s[1:]))
@@ -396,6 +399,9 @@ class GranularBedColumn:
         self._grid = None
         self._args = (self.mu, s.density, s.diameter, s.restitution, s.phi_c, self.k1, self.k2, s.gravity,
                       s.amplitude, s.omega)
+        # the floor's loss restitution, passed only when it differs from the spheres' (so that
+        # bench/ab_bed_step.py can time an earlier commit's bed_advance through this class)
+        self._floor_arg = () if s.floor_restitution is None else (s.floor_dissipation_restitution,)
         self.dt_next = np.array([stable_dt(self.zf, self.th, self.mu, s.density, s.diameter, s.restitution, s.cfl,
                                            self.c)])
         if settle:
@@ -426,7 +432,8 @@ class GranularBedColumn:
         t, t1 = float(t0), float(t1)
         while True:
             t, _ = bed_advance(self.zf, self.vf, self.th, self.hist, t, t1, self.dt_next, *self._args, moving,
-                               self.counters, self.setup.cfl, self.c, self.setup.dissipation_restitution, chunk)
+                               self.counters, self.setup.cfl, self.c, self.setup.dissipation_restitution, chunk,
+                               *self._floor_arg)
             if t >= t1 or self.counters[1]:
                 break
         self.steps = int(self.counters[0])

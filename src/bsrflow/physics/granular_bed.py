@@ -35,7 +35,7 @@ Units: σ_c = WB(δ, δ_max)/A [Pa].
 Floor (the vibrated plate, z = 0 in the floor frame; the floor moves as ϑ(t) = a sin ωt):
 impermeable while it pushes, and it cannot pull (Shattuck 2007's cavitation condition): the bed's
 bottom is held at z = 0 while the reaction is ≥ 0, free otherwise; the energy lost in the
-collisions with the floor (restitution e_w, the same law) is the flux
+collisions with the floor (restitution e_w: the spheres' e unless ``floor_restitution`` is given) is the flux
 (1 − e_w) p √(2θ/π) into the floor while in contact (the Maxwellian flux of normal kinetic
 energy onto a wall, ρ_w θ √(θ/(2π)), times the fraction 1 − e_w² lost, with the density at the
 wall ρ_w = 2p/((1 + e_w)θ) from the pressure p the collisions exert on it: :func:`wall_loss`).  Top: free surface (σ = 0,
@@ -178,7 +178,9 @@ class BedSetup:
     top of the fixed output grid of ``bsrflow run`` (``kind = "granular_bed"``; None: the rest
     height + (3aω)²/(2g) + 10 d, :meth:`energy_bound_height`).  200 cells and
     cfl 0.4: the Γ = 3 comparison's flight time and mass-centre RMS change by 0.1 % and 0.01 d
-    against 400 cells.
+    against 400 cells.  floor_restitution e_w in (0, 1]: the sphere–floor contacts' restitution
+    where it is not e (None: e), used only in the floor's loss (:func:`wall_loss`; with friction
+    through :attr:`floor_dissipation_restitution`); 1 makes the floor's collisions elastic.
     """
 
     n_spheres: int = 2000
@@ -200,6 +202,7 @@ class BedSetup:
     theta_seed: float = 1e-6
     save_every: float = 1e-4
     output_height: float | None = None
+    floor_restitution: float | None = None
 
     def __post_init__(self):
         for name, lo, hi in (("diameter", 0.0, 1.0), ("density", 0.0, 1e5), ("stiffness", 0.0, 1e12),
@@ -218,6 +221,10 @@ class BedSetup:
                 raise ValueError(f"{name} = {v!r} is outside the valid range [{lo:g}, {hi:g}]")
         if not (0.0 < self.restitution < 1.0):
             raise ValueError(f"restitution = {self.restitution!r} is outside the valid range (0, 1)")
+        ew = self.floor_restitution
+        if ew is not None and (isinstance(ew, bool) or not isinstance(ew, (int, float)) or not 0.0 < ew <= 1.0):
+            raise ValueError(f"floor_restitution = {ew!r} is outside the valid range (0, 1] (or not given: the "
+                             "spheres' restitution)")
         f = self.friction
         if isinstance(f, bool) or not isinstance(f, (int, float)) or not (0.0 <= f <= 1.0):
             raise ValueError(f"friction = {f!r} is outside the valid range [0, 1]")
@@ -288,6 +295,17 @@ class BedSetup:
         if self.friction == 0.0:
             return self.restitution
         return self.restitution - 1.5 * self.friction * math.exp(-3.0 * self.friction)
+
+    @property
+    def floor_dissipation_restitution(self) -> float:
+        """The restitution of the floor's loss (:func:`wall_loss`): ``floor_restitution`` (the
+        spheres' e when not given) with friction's effective part as in
+        :attr:`dissipation_restitution`, at least 0."""
+        if self.floor_restitution is None:
+            return self.dissipation_restitution
+        if self.friction == 0.0:
+            return float(self.floor_restitution)
+        return max(0.0, self.floor_restitution - 1.5 * self.friction * math.exp(-3.0 * self.friction))
 
     @property
     def amplitude(self) -> float:
