@@ -607,7 +607,9 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
 def _floor_contact_effect(cases, elastic_floor, ref: Path, s: BedSetup) -> list:
     """Per Γ with both runs: the flights with the floor's restitution e and 1 (LIGGGHTS and the
     continuum), their relative changes, and the RMS difference [d] of the two LIGGGHTS beds'
-    mass-centre heights over the window of ``mass_centre_rms_over_d`` (3T <= t < 8T)."""
+    mass-centre heights over the window of ``mass_centre_rms_over_d`` (3T <= t < 8T); where the
+    reference has them (Γ = 3), also LIGGGHTS's flights of the main bed at e_w = 0.95 and of the
+    spring–dashpot bed with its floor at e and elastic."""
     main = {c["gamma"]: c for c in cases}
     out = []
     for el in elastic_floor:
@@ -622,8 +624,16 @@ def _floor_contact_effect(cases, elastic_floor, ref: Path, s: BedSetup) -> list:
         if a is not None and b is not None and len(a) == len(b) and np.array_equal(a["t_s"], b["t_s"]):
             sel = (a["t_s"] >= (STARTUP_CYCLES - 1e-9) * period) & (a["t_s"] < (STARTUP_CYCLES + 5 - 1e-9) * period)
             rms = float(math.sqrt(np.mean((a["com_rel_m"][sel] - b["com_rel_m"][sel]) ** 2)) / s.diameter)
+        dem = {"floor_e": c["dem_flight_time_s"], "floor_elastic": el["dem_flight_time_s"]}
+        # where they were run: the main bed at e_w = 0.95, and the spring-dashpot bed with both floors
+        for key, tag in (("floor_e0.95", MAIN_RUNS + "_ew0.95"), ("spring_dashpot_floor_e", SPRING_DASHPOT),
+                         ("spring_dashpot_floor_elastic", SPRING_DASHPOT + "_ew1")):
+            _, summ = _reference_case(ref, g, tag)
+            if summ is not None and (key != "spring_dashpot_floor_e" or _reference_case(
+                    ref, g, SPRING_DASHPOT + "_ew1")[1] is not None):
+                dem[key] = float(np.mean(last_complete_flights(summ["flight_time_per_cycle_s"])))
         out.append({"gamma": g,
-                    "dem_flight_time_s": {"floor_e": c["dem_flight_time_s"], "floor_elastic": el["dem_flight_time_s"]},
+                    "dem_flight_time_s": dem,
                     "continuum_flight_time_s": {"floor_e": c["flight_time_s"], "floor_elastic": el["flight_time_s"]},
                     "dem_change_rel": el["dem_flight_time_s"] / c["dem_flight_time_s"] - 1.0,
                     "continuum_change_rel": el["flight_time_s"] / c["flight_time_s"] - 1.0,
@@ -992,7 +1002,10 @@ def _main(args) -> int:
         print(f"floor contacts elastic instead of e = 0.9, Γ = {f['gamma']:g}: LIGGGHTS flight {1e3 * dem['floor_e']:.1f} -> "
               f"{1e3 * dem['floor_elastic']:.1f} ms ({100 * f['dem_change_rel']:+.1f} %, mass centre moved "
               f"{'n/a' if rms is None else f'{rms:.3f} d'} RMS), continuum {1e3 * cont['floor_e']:.1f} -> "
-              f"{1e3 * cont['floor_elastic']:.1f} ms ({100 * f['continuum_change_rel']:+.1f} %)")
+              f"{1e3 * cont['floor_elastic']:.1f} ms ({100 * f['continuum_change_rel']:+.1f} %)"
+              + (f"; LIGGGHTS at floor e = 0.95 {1e3 * dem['floor_e0.95']:.1f} ms" if "floor_e0.95" in dem else "")
+              + (f"; LIGGGHTS spring-dashpot {1e3 * dem['spring_dashpot_floor_e']:.1f} -> "
+                 f"{1e3 * dem['spring_dashpot_floor_elastic']:.1f} ms" if "spring_dashpot_floor_elastic" in dem else ""))
     psd = out.get("period_doubling_gamma_spring_dashpot")
     if psd is not None:
         print(f"period-doubling Γ against the spring-dashpot bed: continuum {gamma_text(psd['continuum'])}, "
