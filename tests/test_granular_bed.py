@@ -90,6 +90,27 @@ def test_compiled_step_matches_numpy(on_floor, friction):
     assert (r > 0) == on_floor
 
 
+def test_force_by_phase_is_the_flight_signal_binned_by_phase():
+    """force_by_phase: the 1-ms moving average of the force over the weight, binned by the phase
+    over the last cycles; a constant gives itself, a sinusoid its bin means: the moving average
+    of 10 samples (``mode="same"``, as the flight measure) lags by half a sample and damps by
+    its discrete gain, and a bin's mean of a sine is its centre value times sinc(π/100)."""
+    from bsrflow.analysis.compare_bed import force_by_phase
+    T, n = 0.05, 11
+    t = np.arange(0, n * T, 1e-4) + 0.5e-4
+    f = force_by_phase(t, np.full(t.size, 3.0), 1.5, T, n)
+    assert f.shape == (100,) and np.allclose(f[1:-1], 2.0, rtol=1e-12)
+    g = force_by_phase(t, 2.0 + np.sin(2 * np.pi * t / T), 2.0, T, n)
+    centre = (np.arange(100) + 0.5) / 100
+    x = np.pi * 1e-4 / T                                  # π f Δt of the samples
+    gain = np.sin(10 * x) / (10 * np.sin(x)) * np.sinc(1.0 / 100)
+    expect = 1.0 + 0.5 * gain * np.sin(2 * np.pi * (centre - 0.5e-4 / T))
+    np.testing.assert_allclose(g[2:-2], expect[2:-2], atol=1e-5)
+    # only the last six cycles count: a different force before them changes nothing
+    early = np.where(t < (n - 6) * T - 2e-3, 50.0, 3.0)
+    np.testing.assert_array_equal(force_by_phase(t, early, 1.5, T, n), f)
+
+
 def test_floor_restitution_enters_the_floors_loss_only():
     """floor_restitution e_w: the floor's loss (1 − e_w) p √(2θ/π) with its own restitution, none
     at e_w = 1; the spheres' loss and everything else unchanged; not given, the step is the one
@@ -760,3 +781,10 @@ def test_compare_bed_compares_each_main_run_with_the_spring_dashpot_bed_too(tmp_
     # the two LIGGGHTS beds' mass centres over the same five cycles: apart by far less than their flights
     assert 0.0 < fx["dem_mass_centre_rms_between_beds_over_d"] < 0.1
     assert "floor_contact_note" in data
+    # the flight measure's signal against the phase, both beds: over a periodic cycle the floor
+    # carries the bed's weight on average
+    for c in (main_case, ef[0], sd[0]):
+        f = c["floor_force_over_weight"]
+        assert len(f["phase"]) == len(f["continuum"]) == len(f["dem"]) == 100
+        assert np.mean(f["dem"]) == pytest.approx(1.0, abs=0.02) and np.mean(f["continuum"]) == pytest.approx(1.0, abs=0.03)
+        assert min(f["dem"]) >= 0.0 and min(f["continuum"]) >= 0.0

@@ -234,7 +234,43 @@ def _case_against(run, setup: BedSetup, ref: Path, tag: str):
         temp = _temperature_against_phase(res, flights, ref, s, tag)
         if temp is not None:
             case["temperature"] = temp
+        force = _floor_force_against_phase(res, ref, s, tag)
+        if force is not None:
+            case["floor_force_over_weight"] = force
     return case, traj
+
+
+FORCE_PHASE_BINS = 100
+"""Phase bins of ``floor_force_over_weight`` (0.5 ms at 20 Hz)."""
+
+
+def force_by_phase(t, force, weight, period, cycles, bins=FORCE_PHASE_BINS, last=6) -> np.ndarray:
+    """The floor force over the bed's weight against the floor phase: the flight measure's signal
+    (the 1-ms moving average, :func:`flights_from_force`) averaged per phase bin over the last
+    ``last`` cycles of ``cycles`` (those of the flight's mean).  Over a periodic cycle its mean
+    is 1: the floor carries the bed's weight on average."""
+    t = np.asarray(t, dtype=float)
+    w = max(1, int(round(FLIGHT_SMOOTH_S / (t[1] - t[0]))))
+    smooth = np.convolve(np.asarray(force, dtype=float), np.ones(w) / w, mode="same")
+    sel = t >= (cycles - last - 1e-9) * period
+    k = np.floor((t[sel] / period % 1.0) * bins).astype(int) % bins
+    n = np.bincount(k, minlength=bins)
+    return np.bincount(k, smooth[sel], minlength=bins) / np.maximum(n, 1) / weight
+
+
+def _floor_force_against_phase(res, ref: Path, s: BedSetup, tag: str):
+    """Both beds' :func:`force_by_phase` at the case's Γ (the reference's floor_force.csv), or None."""
+    path = _run_dir(ref, s.gamma, tag) / "floor_force.csv"
+    if not path.exists():
+        return None
+    dem = _read_csv(path)
+    weight = s.n_spheres * s.sphere_mass * s.gravity
+    return {"phase": ((np.arange(FORCE_PHASE_BINS) + 0.5) / FORCE_PHASE_BINS).tolist(),
+            "continuum": force_by_phase(res.t, res.floor_force, weight, s.period, s.cycles).tolist(),
+            "dem": force_by_phase(dem["t_s"], dem["F_floor_N"], weight, s.period, s.cycles).tolist(),
+            "note": "the floor force over the bed's weight, smoothed over 1 ms as the flight measure's signal "
+                    "(a flight: below 0.1), mean per phase bin (floor at A sin(2 pi phase)) over the last six "
+                    "cycles"}
 
 
 def _temperature_against_phase(res, flights, ref: Path, s: BedSetup, tag: str):
@@ -689,6 +725,32 @@ def _bifurcation_figure(out, ref, folder, plt):
                  folder / "bed_bifurcation.png", plt)
 
 
+def _floor_force_figure(out, folder, plt, gamma=3.0):
+    """bed_floor_force_gamma3.png: the flight measure's signal against the phase at Γ = 3, both
+    beds, with the floor's contacts at e and (where run) elastic; nothing written without it."""
+    rows = []
+    for key, style, label in (("cases", "-", "floor e = 0.9"), ("elastic_floor_cases", ":", "floor elastic")):
+        c = next((c for c in out.get(key, []) if c["gamma"] == gamma and "floor_force_over_weight" in c), None)
+        if c is not None:
+            rows.append((style, label, c["floor_force_over_weight"]))
+    if not rows:
+        return
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4))
+    for ax, top in zip(axes, (None, 0.6)):
+        for style, label, f in rows:
+            ax.plot(f["phase"], f["continuum"], style, color="C0", label=f"continuum, {label}")
+            ax.plot(f["phase"], f["dem"], style, color="C1", label=f"LIGGGHTS Walton–Braun, {label}")
+        ax.axhline(0.1, color="0.5", lw=0.8, label="flight threshold (0.1 M g)")
+        ax.set_xlabel("floor phase [cycles] (floor at A sin 2π·phase)")
+        if top is not None:
+            ax.set_ylim(0.0, top)
+            ax.set_title("near the threshold")
+    axes[0].set_ylabel("floor force / M g (1-ms moving average)")
+    axes[0].legend(fontsize=8)
+    _save_figure(fig, f"Γ = {gamma:g}, frictionless, e = 0.9: the floor force over the last six cycles",
+                 folder / "bed_floor_force_gamma3.png", plt)
+
+
 def _temperature_vs_gamma_figure(out, folder, plt):
     """bed_temperature_vs_gamma.png: the bed's cycle-mean θ against Γ (the continuum, both
     frictionless LIGGGHTS beds where their velocities were dumped) and the continuum's over
@@ -774,6 +836,7 @@ def _figures(out, runs, base, folder, ref=REFERENCE):
     plt.close(fig)
     _bifurcation_figure(out, Path(ref), folder, plt)
     _temperature_vs_gamma_figure(out, folder, plt)
+    _floor_force_figure(out, folder, plt)
     if 3.0 in runs:
         res, traj = runs[3.0]
         fig, ax = plt.subplots(figsize=(7, 4))
