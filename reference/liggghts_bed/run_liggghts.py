@@ -11,7 +11,7 @@ reduces its output into small CSV/JSON files next to this script:
   python reference/liggghts_bed/run_liggghts.py --gamma 3 --model hooke            # its control
   python reference/liggghts_bed/run_liggghts.py --gamma 1.5 2 2.5 3.5 4 4.5 5 5.5 6 6.5 7 7.5 8 --model hooke
   python reference/liggghts_bed/run_liggghts.py --gamma 4 --restitution 0.5       # exploratory
-  python reference/liggghts_bed/run_liggghts.py --gamma 2 2.5 3 3.5 4 4.5 6 --floor-restitution 1  # elastic floor contacts
+  python reference/liggghts_bed/run_liggghts.py --gamma 1.5 2 2.5 3 3.5 4 4.5 5 5.5 6 6.5 7 7.5 8 --floor-restitution 1
   python reference/liggghts_bed/run_liggghts.py --settle --n 10000 --lateral 29
   python reference/liggghts_bed/run_liggghts.py --gamma 3 --n 10000 --lateral 29
   python reference/liggghts_bed/run_liggghts.py --summary          # flight_vs_gamma.csv

@@ -665,10 +665,11 @@ def _floor_contact_effect(cases, elastic_floor, ref: Path, s: BedSetup) -> list:
         for key, tag in (("floor_e0.95", MAIN_RUNS + "_ew0.95"), ("spring_dashpot_floor_e", SPRING_DASHPOT),
                          ("spring_dashpot_floor_elastic", SPRING_DASHPOT + "_ew1")):
             _, summ = _reference_case(ref, g, tag)
-            if summ is not None and (key != "spring_dashpot_floor_e" or _reference_case(
-                    ref, g, SPRING_DASHPOT + "_ew1")[1] is not None):
+            if summ is not None:
                 dem[key] = float(np.mean(last_complete_flights(summ["flight_time_per_cycle_s"])))
-        out.append({"gamma": g,
+        if "spring_dashpot_floor_elastic" not in dem:      # the spring-dashpot bed only as a pair
+            dem.pop("spring_dashpot_floor_e", None)
+        out.append({"gamma": g, "restitution": c["restitution"],
                     "dem_flight_time_s": dem,
                     "continuum_flight_time_s": {"floor_e": c["flight_time_s"], "floor_elastic": el["flight_time_s"]},
                     "dem_change_rel": el["dem_flight_time_s"] / c["dem_flight_time_s"] - 1.0,
@@ -1062,7 +1063,7 @@ def _main(args) -> int:
     for f in out.get("floor_contact_effect") or []:
         dem, cont = f["dem_flight_time_s"], f["continuum_flight_time_s"]
         rms = f["dem_mass_centre_rms_between_beds_over_d"]
-        print(f"floor contacts elastic instead of e = 0.9, Γ = {f['gamma']:g}: LIGGGHTS flight {1e3 * dem['floor_e']:.1f} -> "
+        print(f"floor contacts elastic instead of e = {f['restitution']:g}, Γ = {f['gamma']:g}: LIGGGHTS flight {1e3 * dem['floor_e']:.1f} -> "
               f"{1e3 * dem['floor_elastic']:.1f} ms ({100 * f['dem_change_rel']:+.1f} %, mass centre moved "
               f"{'n/a' if rms is None else f'{rms:.3f} d'} RMS), continuum {1e3 * cont['floor_e']:.1f} -> "
               f"{1e3 * cont['floor_elastic']:.1f} ms ({100 * f['continuum_change_rel']:+.1f} %)"
