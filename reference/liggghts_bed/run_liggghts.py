@@ -133,14 +133,11 @@ pair_style      gran model edinburgh/stiffness tangential no_history
 pair_coeff      * *
 """
     if model == "hooke":
-        ln = math.log(E_REST)
-
-        def gam(meff):  # absolute dashpot coefficient for restitution e
-            return 2.0 * math.sqrt(meff * k) * (-ln) / math.sqrt(math.pi ** 2 + ln * ln)
-        g11, g12 = gam(MASS / 2.0), gam(MASS)
-        if E_FLOOR is not None:             # the sphere-floor dashpot for its own restitution
-            ln = math.log(E_FLOOR)
-            g12 = gam(MASS)
+        def gam(meff, e):  # absolute dashpot coefficient for restitution e (0, not -0, at e = 1)
+            ln = math.log(e)
+            return abs(2.0 * math.sqrt(meff * k) * ln / math.sqrt(math.pi ** 2 + ln * ln))
+        g11 = gam(MASS / 2.0, E_REST)
+        g12 = gam(MASS, E_REST if E_FLOOR is None else E_FLOOR)   # the sphere-floor pairs
         kt = 2.0 / 7.0 * k
         tang = "history" if mu > 0 else "no_history"
         return f"""
@@ -1139,6 +1136,9 @@ def main(argv=None):
                  "range [0, inf) / (0, 1]")
     if a.floor_restitution is not None and not (0.0 < a.floor_restitution <= 1.0):
         ap.error(f"argument --floor-restitution: {a.floor_restitution!r} is outside the valid range (0, 1]")
+    if a.floor_restitution is not None and (a.check or a.settle or a.settle_post):
+        ap.error("argument --floor-restitution: only for the vibration runs (--gamma); --check, --settle and "
+                 "--settle-post keep the contact law's e at the floor")
     E_REST = a.restitution
     E_FLOOR = a.floor_restitution
     if a.root:

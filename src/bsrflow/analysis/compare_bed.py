@@ -252,7 +252,10 @@ def force_by_phase(t, force, weight, period, cycles, bins=FORCE_PHASE_BINS, last
     t = np.asarray(t, dtype=float)
     w = max(1, int(round(FLIGHT_SMOOTH_S / (t[1] - t[0]))))
     smooth = np.convolve(np.asarray(force, dtype=float), np.ones(w) / w, mode="same")
-    sel = t >= (cycles - last - 1e-9) * period
+    # only the samples whose whole window lies inside the series (``mode="same"`` pads with zeros)
+    inside = np.zeros(t.size, dtype=bool)
+    inside[w // 2:t.size - (w - 1) // 2] = True
+    sel = inside & (t >= (cycles - last - 1e-9) * period)
     k = np.floor((t[sel] / period % 1.0) * bins).astype(int) % bins
     n = np.bincount(k, minlength=bins)
     return np.bincount(k, smooth[sel], minlength=bins) / np.maximum(n, 1) / weight
@@ -264,10 +267,12 @@ def _floor_force_against_phase(res, ref: Path, s: BedSetup, tag: str):
     if not path.exists():
         return None
     dem = _read_csv(path)
+    _, summ = _reference_case(ref, s.gamma, tag)
     weight = s.n_spheres * s.sphere_mass * s.gravity
+    dem_weight = (summ or {}).get("n", s.n_spheres) * s.sphere_mass * s.gravity    # its own bed (N = 10 000 too)
     return {"phase": ((np.arange(FORCE_PHASE_BINS) + 0.5) / FORCE_PHASE_BINS).tolist(),
             "continuum": force_by_phase(res.t, res.floor_force, weight, s.period, s.cycles).tolist(),
-            "dem": force_by_phase(dem["t_s"], dem["F_floor_N"], weight, s.period, s.cycles).tolist(),
+            "dem": force_by_phase(dem["t_s"], dem["F_floor_N"], dem_weight, s.period, s.cycles).tolist(),
             "note": "the floor force over the bed's weight, smoothed over 1 ms as the flight measure's signal "
                     "(a flight: below 0.1), mean per phase bin (floor at A sin(2 pi phase)) over the last six "
                     "cycles"}

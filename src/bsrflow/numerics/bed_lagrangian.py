@@ -399,7 +399,7 @@ class GranularBedColumn:
         self._grid = None
         self._args = (self.mu, s.density, s.diameter, s.restitution, s.phi_c, self.k1, self.k2, s.gravity,
                       s.amplitude, s.omega)
-        # the floor's loss restitution, passed only when it differs from the spheres' (so that
+        # the floor's loss restitution, passed only when floor_restitution is given (so that
         # bench/ab_bed_step.py can time an earlier commit's bed_advance through this class)
         self._floor_arg = () if s.floor_restitution is None else (s.floor_dissipation_restitution,)
         self.dt_next = np.array([stable_dt(self.zf, self.th, self.mu, s.density, s.diameter, s.restitution, s.cfl,

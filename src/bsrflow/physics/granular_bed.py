@@ -228,6 +228,10 @@ class BedSetup:
         f = self.friction
         if isinstance(f, bool) or not isinstance(f, (int, float)) or not (0.0 <= f <= 1.0):
             raise ValueError(f"friction = {f!r} is outside the valid range [0, 1]")
+        if ew is not None and not self.floor_dissipation_restitution > 0.0:
+            raise ValueError(f"floor_restitution = {ew!r} is outside the valid range at friction = {f!r}: the "
+                             f"effective restitution e_w - 1.5 mu exp(-3 mu) = {self.floor_dissipation_restitution:.3g} "
+                             "must be > 0")
         if not self.dissipation_restitution > 0.0:
             raise ValueError(f"friction = {f!r} is outside the valid range at restitution = {self.restitution!r}: the "
                              f"effective restitution e - 1.5 mu exp(-3 mu) = {self.dissipation_restitution:.3g} must "
@@ -300,12 +304,12 @@ class BedSetup:
     def floor_dissipation_restitution(self) -> float:
         """The restitution of the floor's loss (:func:`wall_loss`): ``floor_restitution`` (the
         spheres' e when not given) with friction's effective part as in
-        :attr:`dissipation_restitution`, at least 0."""
+        :attr:`dissipation_restitution` (> 0: checked)."""
         if self.floor_restitution is None:
             return self.dissipation_restitution
         if self.friction == 0.0:
             return float(self.floor_restitution)
-        return max(0.0, self.floor_restitution - 1.5 * self.friction * math.exp(-3.0 * self.friction))
+        return self.floor_restitution - 1.5 * self.friction * math.exp(-3.0 * self.friction)
 
     @property
     def amplitude(self) -> float:
