@@ -179,6 +179,7 @@ def test_resting_bed_is_held_by_its_weight_and_the_floor_never_pulls():
                                        (dict(floor_restitution=0.0), "floor_restitution"),
                                        (dict(floor_restitution=1.5), "floor_restitution"),
                                        (dict(floor_restitution=True), "floor_restitution"),
+                                       (dict(friction=1 / 3, floor_restitution=0.15), "floor_restitution"),
                                        (dict(n_cells=2), "n_cells"), (dict(cfl=0.9), "cfl"),
                                        (dict(phi_c=0.8), "phi_c"), (dict(side=0.0), "side")])
 def test_bed_setup_refuses_bad_values_in_one_line(kw, field):
