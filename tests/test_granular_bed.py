@@ -83,7 +83,8 @@ def test_compiled_step_matches_numpy(on_floor, friction):
     n = th.size
     z, v, t, hh = zf.copy(), vf.copy(), th.copy(), hist.copy()
     r, status, _ = bed_step(z, v, t, hh, np.empty(n), np.empty(n), np.empty(n + 1), np.empty(n + 1), dt, gl, mu,
-                            s.density, s.diameter, s.restitution, s.phi_c, k1, k2, s.cfl, s.contact_wave_speed(), e_d)
+                            s.density, s.diameter, s.restitution, s.phi_c, k1, k2, s.cfl, s.contact_wave_speed(), e_d,
+                            s.floor_dissipation_restitution)
     assert status == 0
     for a, b in zip((z, v, t, hh, r), ref):
         np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-300)
@@ -118,24 +119,24 @@ def test_force_by_phase_is_the_flight_signal_binned_by_phase():
 
 def test_floor_restitution_enters_the_floors_loss_only():
     """floor_restitution e_w: the floor's loss (1 − e_w) p √(2θ/π) with its own restitution, none
-    at e_w = 1; the spheres' loss and everything else unchanged; not given, the step is the one
-    with e_w = e bit for bit (the default path passes no e_w at all)."""
+    at e_w = 1; the spheres' loss and everything else unchanged; not given, the setup passes the
+    step e_w = e (a whole run bit for bit the run with e_w = e given)."""
     rng = np.random.default_rng(21)
     s, mu, zf, vf, th, hist, k1 = _state(rng, on_floor=True)
     k2 = k1 / s.restitution ** 2
     dt, gl = 2e-6, s.gravity + 30.0
     n = th.size
 
-    def step(*e_w):
+    def step(e_w):
         z, v, t, hh = zf.copy(), vf.copy(), th.copy(), hist.copy()
         flux = np.empty(n + 1)
         r, status, bound = bed_step(z, v, t, hh, np.empty(n), np.empty(n), flux, np.empty(n + 1), dt, gl, mu,
                                     s.density, s.diameter, s.restitution, s.phi_c, k1, k2, s.cfl,
-                                    s.contact_wave_speed(), s.restitution, *e_w)
+                                    s.contact_wave_speed(), s.restitution, e_w)
         assert status == 0 and r > 0
         return z, v, t, hh, r, bound, flux
 
-    default, same, elastic, half = step(), step(s.restitution), step(1.0), step(0.5)
+    default, same, elastic, half = step(s.floor_dissipation_restitution), step(s.restitution), step(1.0), step(0.5)
     for a, b in zip(default, same):
         assert np.array_equal(a, b)
     assert elastic[6][0] == 0.0 and same[6][0] < 0.0
@@ -311,7 +312,7 @@ def test_step_bound_is_the_states_and_follows_the_formula():
     b0 = stable_dt(zf, th, mu, s.density, s.diameter, s.restitution, s.cfl, c)
     _, status, b1 = bed_step(zf.copy(), vf.copy(), th.copy(), hist.copy(), np.empty(n), np.empty(n), np.empty(n + 1),
                              np.empty(n + 1), 0.0, s.gravity, mu, s.density, s.diameter, s.restitution, s.phi_c, k1,
-                             k1 / s.restitution ** 2, s.cfl, c, s.restitution)
+                             k1 / s.restitution ** 2, s.cfl, c, s.restitution, s.restitution)
     assert status == 0 and b1 == pytest.approx(b0, rel=1e-14)
     sz = np.diff(zf)
     phi = mu / (s.density * sz)
@@ -460,7 +461,7 @@ def test_advance_in_chunks_takes_the_steps_of_one_call():
         np.testing.assert_array_equal(a, b)
     c = np.zeros(2, dtype=np.int64)
     t, _ = bed_advance(one.zf, one.vf, one.th, one.hist, 0.01, 1.0, one.dt_next, *one._args, True, c, s.cfl, one.c,
-                       s.restitution, 5)
+                       s.restitution, s.restitution, 5)
     assert c[0] == 5 and 0.01 < t < 1.0
 
 

@@ -63,6 +63,15 @@ LONG_FRICTION_GAMMAS = (3.0, 3.5, 3.75, 4.0, 4.5)
 """The continuum's frictional runs of :data:`LONG_CYCLES` cycles for its period-doubling Γ."""
 
 
+def smoothed_force(t, force):
+    """(the floor force's 1-ms moving average, the window in samples w): the flight measure's
+    signal, ``np.convolve(..., mode="same")`` (its first w//2 and last (w − 1)//2 values average
+    zero padding in)."""
+    t = np.asarray(t, float)
+    w = max(1, int(round(FLIGHT_SMOOTH_S / (t[1] - t[0]))))
+    return np.convolve(np.asarray(force, float), np.ones(w) / w, mode="same"), w
+
+
 def flights_from_force(t, force, weight):
     """Flights: maximal intervals with the 1-ms moving average of the floor force below 10 % of
     the bed weight, longer than 1 ms (the reference's definition, written again here because
@@ -70,9 +79,7 @@ def flights_from_force(t, force, weight):
     checks both on the same series).  [(t_off, t_on)], t_on NaN
     for a flight still going at the end."""
     t = np.asarray(t, float)
-    dtp = t[1] - t[0]
-    w = max(1, int(round(FLIGHT_SMOOTH_S / dtp)))
-    off = np.convolve(np.asarray(force, float), np.ones(w) / w, mode="same") < FLIGHT_THRESHOLD * weight
+    off = smoothed_force(t, force)[0] < FLIGHT_THRESHOLD * weight
     out, i, n = [], 0, len(off)
     while i < n:
         if off[i]:
@@ -197,6 +204,19 @@ def _compare_one(setup: BedSetup, ref: Path, tag: str, progress=None):
     return case, run, traj
 
 
+def _startup_end(period):
+    """The end of the start-up cycles [s], a hair early so that the sample at 3T is in (3 * 0.05 >
+    0.15 in floats)."""
+    return (STARTUP_CYCLES - 1e-9) * period
+
+
+def _rms_window(t, period):
+    """Mask of the times t in the five cycles after the start-up: the window of
+    ``mass_centre_rms_over_d``."""
+    t = np.asarray(t, float)
+    return (t >= _startup_end(period)) & (t < (STARTUP_CYCLES + 5 - 1e-9) * period)
+
+
 def _case_against(run, setup: BedSetup, ref: Path, tag: str):
     """(the case's dict, the reference's trajectory) of a continuum run (:func:`_continuum_flights`'
     tuple) against the reference run ``tag`` at the setup's Γ: the same run can be compared with
@@ -205,7 +225,7 @@ def _case_against(run, setup: BedSetup, ref: Path, tag: str):
     res, flights, tau, last6 = run
     traj, summ = _reference_case(ref, s.gamma, tag)
     takeoff, landing = flight_phases(flights, s.period, s.cycles)
-    t_startup = (STARTUP_CYCLES - 1e-9) * s.period     # the sample at 3T included (3 * 0.05 > 0.15 in floats)
+    t_startup = _startup_end(s.period)
     case = {"gamma": s.gamma, "restitution": s.restitution, "friction": s.friction,
             **({} if s.floor_restitution is None else {"floor_restitution": s.floor_restitution}),
             "flight_time_s": float(np.mean(last6)), "flight_time_per_cycle_s": tau.tolist(),
@@ -219,7 +239,7 @@ def _case_against(run, setup: BedSetup, ref: Path, tag: str):
         # flight_time_mean_last6_s dropped an unfinished last flight)
         dem_last6 = last_complete_flights(summ["flight_time_per_cycle_s"])
         dem_tau = float(np.mean(dem_last6))
-        sel = (traj["t_s"] >= t_startup) & (traj["t_s"] < (STARTUP_CYCLES + 5 - 1e-9) * s.period)
+        sel = _rms_window(traj["t_s"], s.period)
         com = np.interp(traj["t_s"][sel], res.t, res.mass_centre)
         case.update({
             "dem_flight_time_s": dem_tau,
@@ -234,7 +254,7 @@ def _case_against(run, setup: BedSetup, ref: Path, tag: str):
         temp = _temperature_against_phase(res, flights, ref, s, tag)
         if temp is not None:
             case["temperature"] = temp
-        force = _floor_force_against_phase(res, ref, s, tag)
+        force = _floor_force_against_phase(res, ref, s, tag, summ["n"])
         if force is not None:
             case["floor_force_over_weight"] = force
     return case, traj
@@ -250,9 +270,8 @@ def force_by_phase(t, force, weight, period, cycles, bins=FORCE_PHASE_BINS, last
     ``last`` cycles of ``cycles`` (those of the flight's mean).  Over a periodic cycle its mean
     is 1: the floor carries the bed's weight on average."""
     t = np.asarray(t, dtype=float)
-    w = max(1, int(round(FLIGHT_SMOOTH_S / (t[1] - t[0]))))
-    smooth = np.convolve(np.asarray(force, dtype=float), np.ones(w) / w, mode="same")
-    # only the samples whose whole window lies inside the series (``mode="same"`` pads with zeros)
+    smooth, w = smoothed_force(t, force)
+    # only the samples whose whole window lies inside the series
     inside = np.zeros(t.size, dtype=bool)
     inside[w // 2:t.size - (w - 1) // 2] = True
     sel = inside & (t >= (cycles - last - 1e-9) * period)
@@ -261,15 +280,15 @@ def force_by_phase(t, force, weight, period, cycles, bins=FORCE_PHASE_BINS, last
     return np.bincount(k, smooth[sel], minlength=bins) / np.maximum(n, 1) / weight
 
 
-def _floor_force_against_phase(res, ref: Path, s: BedSetup, tag: str):
-    """Both beds' :func:`force_by_phase` at the case's Γ (the reference's floor_force.csv), or None."""
+def _floor_force_against_phase(res, ref: Path, s: BedSetup, tag: str, dem_spheres: int):
+    """Both beds' :func:`force_by_phase` at the case's Γ (the reference's floor_force.csv), each
+    over its own weight (``dem_spheres``: the reference bed's N, 10 000 in the large box), or None."""
     path = _run_dir(ref, s.gamma, tag) / "floor_force.csv"
     if not path.exists():
         return None
     dem = _read_csv(path)
-    _, summ = _reference_case(ref, s.gamma, tag)
     weight = s.n_spheres * s.sphere_mass * s.gravity
-    dem_weight = (summ or {}).get("n", s.n_spheres) * s.sphere_mass * s.gravity    # its own bed (N = 10 000 too)
+    dem_weight = dem_spheres * s.sphere_mass * s.gravity
     return {"phase": ((np.arange(FORCE_PHASE_BINS) + 0.5) / FORCE_PHASE_BINS).tolist(),
             "continuum": force_by_phase(res.t, res.floor_force, weight, s.period, s.cycles).tolist(),
             "dem": force_by_phase(dem["t_s"], dem["F_floor_N"], dem_weight, s.period, s.cycles).tolist(),
@@ -660,10 +679,9 @@ def _floor_contact_effect(cases, elastic_floor, ref: Path, s: BedSetup) -> list:
             continue
         a, _ = _reference_case(ref, g, MAIN_RUNS)
         b, _ = _reference_case(ref, g, ELASTIC_FLOOR)
-        period = 1.0 / s.frequency
         rms = None
         if a is not None and b is not None and len(a) == len(b) and np.array_equal(a["t_s"], b["t_s"]):
-            sel = (a["t_s"] >= (STARTUP_CYCLES - 1e-9) * period) & (a["t_s"] < (STARTUP_CYCLES + 5 - 1e-9) * period)
+            sel = _rms_window(a["t_s"], s.period)
             rms = float(math.sqrt(np.mean((a["com_rel_m"][sel] - b["com_rel_m"][sel]) ** 2)) / s.diameter)
         dem = {"floor_e": c["dem_flight_time_s"], "floor_elastic": el["dem_flight_time_s"]}
         # where they were run: the main bed at e_w = 0.95, and the spring-dashpot bed with both floors

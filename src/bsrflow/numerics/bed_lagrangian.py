@@ -52,12 +52,12 @@ __all__ = ["GranularBedColumn", "bed_step", "bed_advance", "stable_dt", "bed_ste
 
 
 @numba.njit(cache=True, error_model="numpy")
-def bed_step(zf, vf, th, hist, sig, pq, flux, cond, dt, gl, mu, rho_s, d, e, phi_c, k1, k2, cfl, c, e_d, e_w=-1.0):
+def bed_step(zf, vf, th, hist, sig, pq, flux, cond, dt, gl, mu, rho_s, d, e, phi_c, k1, k2, cfl, c, e_d, e_w):
     """One step (module docstring), in place; ``sig``, ``pq`` (n), ``flux``, ``cond`` (n + 1) are
     work arrays (``cond`` holds ζ_j/s_j until the conduction overwrites it); e_d the restitution of
-    the spheres' collisional loss and, unless ``e_w`` ≥ 0 is given, of the floor's
-    (:attr:`BedSetup.dissipation_restitution`, e without friction; ``e_w``:
-    :attr:`BedSetup.floor_dissipation_restitution`).  Returns (floor reaction R
+    the spheres' collisional loss (:attr:`BedSetup.dissipation_restitution`, e without friction),
+    e_w the floor's (:attr:`BedSetup.floor_dissipation_restitution`: e_d unless the floor's
+    restitution is given).  Returns (floor reaction R
     [Pa], status, Δt bound [s]); status 1: a cell's
     thickness reached 0.  The bound, the next step's Δt, is the smallest over the cells of the
     contact wave's cfl s_j/c and half the explicit limits of the viscous stress, μ s_j/(2ζ_j),
@@ -112,7 +112,7 @@ def bed_step(zf, vf, th, hist, sig, pq, flux, cond, dt, gl, mu, rho_s, d, e, phi
     flux[0] = 0.0
     cond[0] = 0.0
     if reaction > 0.0:
-        flux[0] = -wall_loss(mu / (rho_s * (zf[1] - zf[0])), th[0], rho_s, e, e_d if e_w < 0.0 else e_w)
+        flux[0] = -wall_loss(mu / (rho_s * (zf[1] - zf[0])), th[0], rho_s, e, e_w)
     flux[n] = 0.0
     cond[n] = 0.0
     for f in range(1, n):
@@ -182,13 +182,13 @@ def stable_dt(zf, th, mu, rho_s, d, e, cfl, c):
 
 @numba.njit(cache=True, error_model="numpy")
 def bed_advance(zf, vf, th, hist, t, t_stop, dt_next, mu, rho_s, d, e, phi_c, k1, k2, g, amp, w, moving,
-                counters, cfl, c, e_d, max_steps, e_w=-1.0):
+                counters, cfl, c, e_d, e_w, max_steps):
     """Steps from t towards t_stop, each with the bound its previous step returned
     (``dt_next[0]``: in, the first step's; out, the bound after the last step), at most
     ``max_steps`` of them (the caller calls again until t = t_stop: the same steps as one call,
     and Ctrl-C / SIGTERM handled in between); the floor ϑ = a sin ωt when ``moving``
     (g_l = g − a ω² sin ωt), at rest otherwise.  counters: [steps, status]; returns (t, last
-    floor reaction [Pa]).  ``e_w`` ≥ 0: the floor's loss restitution when it is not ``e_d``
+    floor reaction [Pa]).  e_d, e_w: the spheres' and the floor's loss restitutions
     (:func:`bed_step`)."""
     n = th.shape[0]
     sig = np.empty(n)
@@ -340,7 +340,7 @@ def _compile_bed():
     c = np.zeros(2, dtype=np.int64)
     bed_advance(zf, np.zeros(5), np.zeros(4), np.zeros(4), 0.0, 1e-6, np.array([stable_dt(
         zf, np.zeros(4), 1.0, 1000.0, 1e-3, 0.9, 0.4, 10.0)]), 1.0, 1000.0, 1e-3, 0.9, 0.6, 1.0, 1.0, 9.81, 0.0, 1.0,
-        False, c, 0.4, 10.0, 0.9, 10)
+        False, c, 0.4, 10.0, 0.9, 0.9, 10)
 
 
 def static_bed(setup):
@@ -399,9 +399,6 @@ class GranularBedColumn:
         self._grid = None
         self._args = (self.mu, s.density, s.diameter, s.restitution, s.phi_c, self.k1, self.k2, s.gravity,
                       s.amplitude, s.omega)
-        # the floor's loss restitution, passed only when floor_restitution is given (so that
-        # bench/ab_bed_step.py can time an earlier commit's bed_advance through this class)
-        self._floor_arg = () if s.floor_restitution is None else (s.floor_dissipation_restitution,)
         self.dt_next = np.array([stable_dt(self.zf, self.th, self.mu, s.density, s.diameter, s.restitution, s.cfl,
                                            self.c)])
         if settle:
@@ -432,8 +429,8 @@ class GranularBedColumn:
         t, t1 = float(t0), float(t1)
         while True:
             t, _ = bed_advance(self.zf, self.vf, self.th, self.hist, t, t1, self.dt_next, *self._args, moving,
-                               self.counters, self.setup.cfl, self.c, self.setup.dissipation_restitution, chunk,
-                               *self._floor_arg)
+                               self.counters, self.setup.cfl, self.c, self.setup.dissipation_restitution,
+                               self.setup.floor_dissipation_restitution, chunk)
             if t >= t1 or self.counters[1]:
                 break
         self.steps = int(self.counters[0])
