@@ -3,6 +3,7 @@ pieces against their NumPy twins, the floor that cannot pull, static equilibrium
 the flight and period-doubling measures, and `bsrflow compare-bed` end to end (short)."""
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -285,6 +286,33 @@ def test_flight_definition_is_the_reference_scripts():
     a = flights_from_force(t, force, 1.0)
     b = mod.flights_from_force(t, force, 1.0)
     assert len(a) > 3 and np.allclose(np.array(a, dtype=float), np.array(b, dtype=float), equal_nan=True)
+    # and at the other thresholds of flight_vs_threshold.csv, whose 0.1 row is this flight
+    assert mod.FLIGHT_THRESHOLD in mod.FLIGHT_THRESHOLDS
+    for th in mod.FLIGHT_THRESHOLDS:
+        a = flights_from_force(t, force, 1.0, th)
+        b = mod.flights_from_force(t, force, 1.0, th)
+        assert len(a) > 3 and np.allclose(np.array(a, dtype=float), np.array(b, dtype=float), equal_nan=True)
+    longer = flights_from_force(t, force, 1.0, 0.5)
+    assert np.nansum([b - a for a, b in longer]) > np.nansum([b - a for a, b in flights_from_force(t, force, 1.0, 0.1)])
+
+
+def test_committed_threshold_tables_agree_with_the_runs_summaries():
+    """Every committed flight_vs_threshold.csv has the script's thresholds, its 0.1 row is the
+    run's own flight (summary.json, last six finished flights), and a higher threshold never
+    shortens the flight."""
+    mod = _reference_script()
+    root = Path(__file__).resolve().parents[1] / "reference" / "liggghts_bed" / "results"
+    tables = sorted(root.glob("*/flight_vs_threshold.csv"))
+    assert len(tables) >= 40 and (root / "gamma_3.00_N2000_L13d" / "flight_vs_threshold.csv") in tables
+    for path in tables:
+        rows = np.genfromtxt(path, delimiter=",", names=True, skip_header=1)
+        assert tuple(rows["threshold_over_weight"]) == mod.FLIGHT_THRESHOLDS, path
+        summ = json.loads((path.parent / "summary.json").read_text())
+        tau = np.array([np.nan if v is None else v for v in summ["flight_time_per_cycle_s"]], dtype=float)
+        own = np.mean(tau[~np.isnan(tau)][-6:])
+        at_01 = rows["flight_time_mean_last6_s"][list(rows["threshold_over_weight"]).index(0.1)]
+        assert at_01 == pytest.approx(own, abs=6e-7), path
+        assert np.all(np.diff(rows["flight_time_mean_last6_s"]) > 0.0), path
 
 
 def test_mean_flight_counts_back_from_the_last_finished_flight():
@@ -795,3 +823,13 @@ def test_compare_bed_compares_each_main_run_with_the_spring_dashpot_bed_too(tmp_
         assert len(f["phase"]) == len(f["continuum"]) == len(f["dem"]) == 100
         assert np.mean(f["dem"]) == pytest.approx(1.0, abs=0.02) and np.mean(f["continuum"]) == pytest.approx(1.0, abs=0.03)
         assert min(f["dem"]) >= 0.0 and min(f["continuum"]) >= 0.0
+    # the flight with the floor force cut at several fractions of the weight, where the reference
+    # has the table (not the 10 000-sphere run): the 0.1 row is each model's flight above
+    for c in (main_case, ef[0], sd[0]):
+        ft = c["flight_by_threshold"]
+        assert ft["threshold_over_weight"] == [0.05, 0.1, 0.2, 0.3, 0.5, 0.8]
+        assert ft["continuum_s"][1] == c["flight_time_s"]
+        assert ft["dem_s"][1] == pytest.approx(c["dem_flight_time_s"], abs=6e-7)
+        assert ft["rel_diff"] == [a / b - 1.0 for a, b in zip(ft["continuum_s"], ft["dem_s"])]
+        assert np.all(np.diff(ft["continuum_s"]) > 0.0) and np.all(np.diff(ft["dem_s"]) > 0.0)
+    assert "flight_by_threshold" not in big[0] and "flight_threshold_note" in data

@@ -746,13 +746,18 @@ FLIGHT_THRESHOLD = 0.10      # bed off the floor: smoothed floor force < 0.1 M g
 FLIGHT_MIN_S = 1.0e-3        # ignore off-floor intervals shorter than this
 
 
-def flights_from_force(t: np.ndarray, f: np.ndarray, weight: float):
+FLIGHT_THRESHOLDS = (0.05, 0.1, 0.2, 0.3, 0.5, 0.8)
+"""Thresholds (fractions of the bed weight) of flight_vs_threshold.csv: the flight measure's
+dependence on where the floor force is cut (0.1 is the flight of every other file)."""
+
+
+def flights_from_force(t: np.ndarray, f: np.ndarray, weight: float, threshold: float = FLIGHT_THRESHOLD):
     """Flights = maximal intervals with the 1-ms moving average of the floor force
-    below 10 % of the bed weight, longer than 1 ms. Returns list of (t_off, t_on)."""
+    below ``threshold`` (10 %) of the bed weight, longer than 1 ms. Returns list of (t_off, t_on)."""
     dtp = t[1] - t[0]
     w = max(1, int(round(FLIGHT_SMOOTH_S / dtp)))
     fs = np.convolve(f, np.ones(w) / w, mode="same")
-    off = fs < FLIGHT_THRESHOLD * weight
+    off = fs < threshold * weight
     out = []
     i = 0
     n = len(off)
@@ -781,6 +786,41 @@ def write_floor_force(out: Path, t, zf, fz, weight: float) -> None:
         f.write("t_s,z_floor_m,F_floor_N\n")
         for i in range(0, len(t), keep):
             f.write(f"{t[i]:.6f},{zf[i]:.4e},{fz[i]:.4e}\n")
+
+
+def last_six_flights(flights, ncyc: int) -> np.ndarray:
+    """The last six finished flights [s] of the per-cycle flight times (each cycle's longest
+    flight taking off in it, 0 without one, unfinished ones dropped before counting), as
+    ``flight_time_mean_last6_s`` of summary.json."""
+    per = np.zeros(ncyc)
+    for (t0, t1) in flights:
+        c = int(math.floor(t0 / PERIOD))
+        if 0 <= c < ncyc:
+            per[c] = np.nan if math.isnan(t1 - t0) else max(per[c], t1 - t0)
+    return per[~np.isnan(per)][-6:]
+
+
+def write_flight_thresholds(out: Path, t, fz, weight: float, ncyc: int) -> None:
+    """flight_vs_threshold.csv: the mean of the last six finished flights with the bed off the floor
+    while the 1-ms floor force is below each of :data:`FLIGHT_THRESHOLDS` times its weight (the
+    full-resolution series, every FORCE_EVERY steps)."""
+    with open(out / "flight_vs_threshold.csv", "w") as f:
+        f.write("# flight time per cycle (mean of the last six finished flights) against the threshold of the "
+                "1-ms moving average of the floor force, as a fraction of the bed weight M g; 0.1 is the flight "
+                "of flights.csv and summary.json\n")
+        f.write("threshold_over_weight,flight_time_mean_last6_s,flight_time_std_last6_s\n")
+        for th in FLIGHT_THRESHOLDS:
+            last = last_six_flights(flights_from_force(t, fz, weight, th), ncyc)
+            f.write(f"{th:g},{np.mean(last):.6f},{np.std(last):.6f}\n")
+
+
+def refresh_thresholds(name: str) -> None:
+    """Write results/<name>/flight_vs_threshold.csv from work/<name>/floor.txt (no LIGGGHTS run)."""
+    wd = WORK / name
+    meta = json.loads((wd / "meta.json").read_text())
+    a = read_columns(wd / "floor.txt")
+    write_flight_thresholds(RESULTS / name, a[:, 0] * meta["dt_s"], -a[:, 2], MASS * a[0, 6] * G,
+                            meta["cycles_startup"] + meta["cycles_measured"])
 
 
 def refresh_floor_force(name: str) -> None:
@@ -843,6 +883,7 @@ def postprocess(name: str) -> dict:
             f.write(f"{c},{int(c >= n0)},{per[c]:.6f},{per[c]/PERIOD:.5f},{offfrac[c]:.6f}\n")
     # coarser copy of the force series for committing
     write_floor_force(out, t, zf, fz, weight)
+    write_flight_thresholds(out, t, fz, weight, ncyc)
 
     # --- positions (every 1/(40 f))
     frames = read_dump(wd / "bed.dump")
@@ -1120,6 +1161,9 @@ def main(argv=None):
                     help="e of the sphere-floor contacts only (default: --restitution's); the runs' folders "
                          "end in _ew<E>")
     ap.add_argument("--post", metavar="RUN", help="re-run the post-processing of work/RUN")
+    ap.add_argument("--thresholds", metavar="RUN", nargs="+",
+                    help="write results/RUN/flight_vs_threshold.csv from work/RUN/floor.txt ('all': every run "
+                         "with one), without running LIGGGHTS")
     ap.add_argument("--summary", action="store_true")
     ap.add_argument("--settle-post", action="store_true", help="redo the packing statistics")
     ap.add_argument("--root", metavar="DIR", help="write work/, results/ and the JSON files under DIR instead of "
@@ -1174,6 +1218,16 @@ def main(argv=None):
     if a.post:
         s = postprocess(a.post)
         print(json.dumps(s, indent=1))
+    if a.thresholds:
+        names = a.thresholds
+        if names == ["all"]:
+            names = sorted(p.parent.name for p in WORK.glob("gamma_*/floor.txt"))
+        for name in names:
+            if not (WORK / name / "floor.txt").exists():
+                ap.error(f"argument --thresholds: {name!r} has no work/{name}/floor.txt (run it with --gamma)")
+        for name in names:
+            refresh_thresholds(name)
+            print(f"results/{name}/flight_vs_threshold.csv")
     if a.summary:
         summary()
 

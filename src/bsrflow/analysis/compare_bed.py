@@ -9,7 +9,9 @@ the same measures as the reference's post-processing (``reference/liggghts_bed/r
 
 * flight time per cycle: the maximal intervals with the 1-ms moving average of the floor force
   below 0.1 Mg, longer than 1 ms, each assigned to the cycle of its take-off; the steady value
-  is the mean over the last six cycles (cycles 5–10);
+  is the mean over the last six cycles (cycles 5–10); ``flight_by_threshold`` gives the same
+  measure with the force cut at 0.05–0.8 Mg (where the reference has its
+  flight_vs_threshold.csv), a diagnostic of where in the landing and take-off the two differ;
 * mass-centre RMS: the RMS difference of the mass-centre heights above the floor over the five
   cycles after the three start-up cycles (3T ≤ t < 8T), in d;
 * period doubling: the even/odd split of the last six flights above 10 % of their mean with
@@ -72,14 +74,14 @@ def smoothed_force(t, force):
     return np.convolve(np.asarray(force, float), np.ones(w) / w, mode="same"), w
 
 
-def flights_from_force(t, force, weight):
-    """Flights: maximal intervals with the 1-ms moving average of the floor force below 10 % of
-    the bed weight, longer than 1 ms (the reference's definition, written again here because
-    reference/liggghts_bed/run_liggghts.py runs without bsrflow; tests/test_granular_bed.py
-    checks both on the same series).  [(t_off, t_on)], t_on NaN
+def flights_from_force(t, force, weight, threshold=FLIGHT_THRESHOLD):
+    """Flights: maximal intervals with the 1-ms moving average of the floor force below
+    ``threshold`` (10 %) of the bed weight, longer than 1 ms (the reference's definition, written
+    again here because reference/liggghts_bed/run_liggghts.py runs without bsrflow;
+    tests/test_granular_bed.py checks both on the same series).  [(t_off, t_on)], t_on NaN
     for a flight still going at the end."""
     t = np.asarray(t, float)
-    off = smoothed_force(t, force)[0] < FLIGHT_THRESHOLD * weight
+    off = smoothed_force(t, force)[0] < threshold * weight
     out, i, n = [], 0, len(off)
     while i < n:
         if off[i]:
@@ -257,7 +259,27 @@ def _case_against(run, setup: BedSetup, ref: Path, tag: str):
         force = _floor_force_against_phase(res, ref, s, tag, summ["n"])
         if force is not None:
             case["floor_force_over_weight"] = force
+        by_threshold = _flight_by_threshold(res, ref, s, tag)
+        if by_threshold is not None:
+            case["flight_by_threshold"] = by_threshold
     return case, traj
+
+
+def _flight_by_threshold(res, ref: Path, s: BedSetup, tag: str):
+    """The flight (mean of the last six finished flights) of both models with the floor force cut
+    at each threshold of the reference's flight_vs_threshold.csv (fractions of the bed weight;
+    0.1 is the criterion's flight), or None where the reference has no such file."""
+    path = _run_dir(ref, s.gamma, tag) / "flight_vs_threshold.csv"
+    if not path.exists():
+        return None
+    rows = np.atleast_1d(_read_csv(path))
+    weight = s.n_spheres * s.sphere_mass * s.gravity
+    thresholds = [float(v) for v in rows["threshold_over_weight"]]
+    dem = [float(v) for v in rows["flight_time_mean_last6_s"]]
+    cont = [float(np.mean(last_complete_flights(flight_per_cycle(
+        flights_from_force(res.t, res.floor_force, weight, th), s.period, s.cycles)))) for th in thresholds]
+    return {"threshold_over_weight": thresholds, "continuum_s": cont, "dem_s": dem,
+            "rel_diff": [c / d - 1.0 for c, d in zip(cont, dem)]}
 
 
 FORCE_PHASE_BINS = 100
@@ -604,6 +626,11 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                         "e - 1.5 mu exp(-3 mu) (Chialvo and Sundaresan 2013)"},
         "n_cells": n_cells,
         "cases": cases,
+        "flight_threshold_note": ("cases[].flight_by_threshold (and the other cases' where the reference has "
+                                  "flight_vs_threshold.csv): the flight of both models with the 1-ms floor force cut "
+                                  "at each fraction of the bed weight, the rest of the measure unchanged; the "
+                                  "criterion's flight is the 0.1 row. A diagnostic: low thresholds weigh the first "
+                                  "spheres to land and the last to leave, high ones the bulk of the bed"),
         "extra_cases": extra,
         "spring_dashpot_cases": spring_dashpot,
         "spring_dashpot_note": ("the main cases' continuum runs (the same runs, smooth, e = 0.9) against LIGGGHTS's "
@@ -749,6 +776,32 @@ def _bifurcation_figure(out, ref, folder, plt):
                  folder / "bed_bifurcation.png", plt)
 
 
+def _flight_threshold_figure(out, folder, plt):
+    """bed_flight_vs_threshold.png: the continuum's flight against LIGGGHTS's at each threshold of
+    the floor force, against Γ (the main cases and, where run, the elastic-floor ones); nothing
+    written without the reference's threshold tables."""
+    panels = [(key, title) for key, title in (("cases", "floor e = 0.9 (the main comparison)"),
+                                              ("elastic_floor_cases", "floor contacts elastic, both models"))
+              if any("flight_by_threshold" in c for c in out.get(key, []))]
+    if not panels:
+        return
+    fig, axes = plt.subplots(1, len(panels), figsize=(6 * len(panels), 4), sharey=True, squeeze=False)
+    for ax, (key, title) in zip(axes[0], panels):
+        cs = [c for c in out[key] if "flight_by_threshold" in c]
+        for k, th in enumerate(cs[0]["flight_by_threshold"]["threshold_over_weight"]):
+            ax.plot([c["gamma"] for c in cs], [100 * c["flight_by_threshold"]["rel_diff"][k] for c in cs],
+                    "o-" if th == FLIGHT_THRESHOLD else ".--", lw=2 if th == FLIGHT_THRESHOLD else 1,
+                    label=f"{th:g} M g" + (" (the criterion's)" if th == FLIGHT_THRESHOLD else ""))
+        ax.axhspan(-5, 5, color="0.9", zorder=0)
+        ax.axhline(0.0, color="0.5", lw=0.8)
+        ax.set_xlabel("Γ = aω²/g")
+        ax.set_title(title, fontsize=10)
+    axes[0][0].set_ylabel("flight: continuum / LIGGGHTS − 1 [%]")
+    axes[0][0].legend(title="floor force below", fontsize=8)
+    _save_figure(fig, "Flight per cycle with the floor force cut at several fractions of the bed weight (grey: ±5 %)",
+                 folder / "bed_flight_vs_threshold.png", plt)
+
+
 def _floor_force_figure(out, folder, plt, gamma=3.0):
     """bed_floor_force_gamma3.png: the flight measure's signal against the phase at Γ = 3, both
     beds, with the floor's contacts at e and (where run) elastic; nothing written without it."""
@@ -861,6 +914,7 @@ def _figures(out, runs, base, folder, ref=REFERENCE):
     _bifurcation_figure(out, Path(ref), folder, plt)
     _temperature_vs_gamma_figure(out, folder, plt)
     _floor_force_figure(out, folder, plt)
+    _flight_threshold_figure(out, folder, plt)
     if 3.0 in runs:
         res, traj = runs[3.0]
         fig, ax = plt.subplots(figsize=(7, 4))
