@@ -833,3 +833,91 @@ def test_compare_bed_compares_each_main_run_with_the_spring_dashpot_bed_too(tmp_
         assert ft["rel_diff"] == [a / b - 1.0 for a, b in zip(ft["continuum_s"], ft["dem_s"])]
         assert np.all(np.diff(ft["continuum_s"]) > 0.0) and np.all(np.diff(ft["dem_s"]) > 0.0)
     assert "flight_by_threshold" not in big[0] and "flight_threshold_note" in data
+    # the same continuum run against the main bed poured with other seeds: the reference value's
+    # spread over packings, recomputed here from the committed summaries
+    root = Path(__file__).resolve().parents[1] / "reference" / "liggghts_bed" / "results"
+    seeds = sorted(int(p.name.rsplit("_seed", 1)[1]) for p in root.glob("gamma_3.00_N2000_L13d_seed*")
+                   if p.name.rsplit("_seed", 1)[1].isdigit())
+    op = data["other_packing_cases"]
+    assert len(seeds) >= 2 and [c["dem_tag"] for c in op] == [f"N2000_L13d_seed{k}" for k in seeds]
+    assert all(c["flight_time_s"] == main_case["flight_time_s"] for c in op)
+    (spread,) = data["packing_spread"]
+    own = [main_case["dem_flight_time_s"]] + [c["dem_flight_time_s"] for c in op]
+    assert spread["dem_flight_time_s"] == own
+    assert spread["dem_flight_std_s"] == pytest.approx(np.std(own, ddof=1), rel=1e-12)
+    assert spread["continuum_rel_diff_to_mean"] == pytest.approx(main_case["flight_time_s"] / np.mean(own) - 1, rel=1e-12)
+    assert spread["continuum_rel_diff_to_main"] == main_case["flight_time_rel_diff"]
+    assert len(spread["dem_mass_centre_rms_from_main_over_d"]) == len(op)
+    # the 30-cycle runs: the continuum over 30 cycles too, its last six flights those of cycles 24-29
+    lr = data["long_reference_cases"]
+    assert 3.0 in [c["gamma"] for c in lr] and "long_reference_note" in data
+    l3 = next(c for c in lr if c["gamma"] == 3.0)
+    assert len(l3["flight_time_per_cycle_s"]) == 30
+    summ = json.loads((root / "gamma_3.00_N2000_L13d_c30" / "summary.json").read_text())
+    assert l3["dem_flight_time_s"] == pytest.approx(np.mean([v for v in summ["flight_time_per_cycle_s"] if v][-6:]))
+    # LIGGGHTS's structure per cycle: the main packing crystallises at Γ = 3 (the crystal-like
+    # fraction rises from the settled bed's to more than a third by cycle 30)
+    st = l3["dem_structure"]
+    assert st["cycle"] == list(range(31)) and st["crystal_fraction"][0] < 0.05 < 0.35 < st["crystal_fraction"][-1]
+    assert main_case["dem_structure"]["crystal_fraction"] == st["crystal_fraction"][:12]
+
+
+def test_reference_seed_option_names_its_packing_and_refuses_bad_values(monkeypatch, tmp_path):
+    """run_liggghts.py --seed S: another random packing, its folders tagged _seed<S> (the default
+    seed's names unchanged); a negative seed, or one with --check, exits 2 before any work."""
+    mod = _reference_script()
+    assert mod.tag(2000, 13.0) == "N2000_L13d"
+    assert mod.run_name(3.0, 2000, 13.0, "walton_braun", 0.0) == "gamma_3.00_N2000_L13d"
+    monkeypatch.setattr(mod, "SEED", 7)
+    assert mod.tag(2000, 13.0) == "N2000_L13d_seed7"
+    assert mod.run_name(3.0, 2000, 13.0, "walton_braun", 0.0) == "gamma_3.00_N2000_L13d_seed7"
+    for argv in (["--seed", "-1", "--settle"], ["--seed", "3", "--check"]):
+        with pytest.raises(SystemExit) as exc:
+            mod.main(argv + ["--root", str(tmp_path / "never")])
+        assert exc.value.code == 2
+    assert not (tmp_path / "never").exists()
+
+
+def test_other_packing_tags_are_found_in_seed_order(tmp_path):
+    """compare-bed finds the other-packing runs of a Γ (with their trajectory) in seed order."""
+    from bsrflow.analysis.compare_bed import _other_packing_tags
+    for name in ("gamma_3.00_N2000_L13d_seed10", "gamma_3.00_N2000_L13d_seed2", "gamma_3.00_N2000_L13d",
+                 "gamma_3.00_N2000_L13d_seed2_hooke", "gamma_2.00_N2000_L13d_seed1", "gamma_3.00_N2000_L13d_seed5"):
+        (tmp_path / "results" / name).mkdir(parents=True)
+        if not name.endswith("seed5"):                  # a run without its trajectory is left out
+            (tmp_path / "results" / name / "trajectory.csv").write_text("t_s\n")
+    assert _other_packing_tags(tmp_path, 3.0) == ["N2000_L13d_seed2", "N2000_L13d_seed10"]
+    assert _other_packing_tags(tmp_path, 2.0) == ["N2000_L13d_seed1"]
+    assert _other_packing_tags(tmp_path, 4.0) == []
+
+
+def test_reference_run_of_another_length_has_its_own_folder():
+    """A run of another length than 3 + 8 cycles is named _c<cycles> (_s<startup> too where the
+    start-up differs), so it never overwrites the main run of its Γ."""
+    mod = _reference_script()
+    assert mod.run_name(3.0, 2000, 13.0, "walton_braun", 0.0, 3, 8) == "gamma_3.00_N2000_L13d"
+    assert mod.run_name(3.0, 2000, 13.0, "walton_braun", 0.0, 3, 27) == "gamma_3.00_N2000_L13d_c30"
+    assert mod.run_name(2.0, 2000, 13.0, "hooke", 0.0, 5, 25) == "gamma_2.00_N2000_L13d_hooke_c30s5"
+
+
+def test_reference_crystal_fraction_tells_fcc_from_random():
+    """The q6 crystal-like fraction of run_liggghts.py: 1 inside an fcc crystal (laterally periodic,
+    the free top and bottom layers too, their 7+ in-plane and out-of-plane bonds being crystal-like),
+    0 in a random gas, and the same for a crystal shifted across the periodic sides."""
+    mod = _reference_script()
+    d = mod.D
+    a, n = math.sqrt(2.0) * d, 6
+    base = np.array([[0, 0, 0], [0.5, 0.5, 0], [0.5, 0, 0.5], [0, 0.5, 0.5]])
+    fcc = np.array([(i + b[0], j + b[1], k + b[2]) for i in range(n) for j in range(n) for k in range(6)
+                    for b in base]) * a
+    assert mod.crystal_fraction(fcc, n * a) == 1.0
+    shifted = fcc + np.array([0.37 * a, -0.81 * a, 0.0])
+    assert mod.crystal_fraction(shifted, n * a) == 1.0
+    rng = np.random.default_rng(3)
+    gas = rng.uniform(0.0, n * a, fcc.shape)
+    assert mod.crystal_fraction(gas, n * a) == 0.0
+    # the committed main runs: the settled random packing is not crystalline
+    root = Path(__file__).resolve().parents[1] / "reference" / "liggghts_bed" / "results"
+    rows = np.genfromtxt(root / "gamma_3.00_N2000_L13d" / "structure_per_cycle.csv", delimiter=",", names=True,
+                         skip_header=1)
+    assert rows["cycle"][0] == 0 and rows["crystal_fraction"][0] < 0.05

@@ -50,7 +50,8 @@ STEPS_PER_CONTACT = 50          # dt ~ t_contact / 50 (pair contact, the shortes
 CYCLES_STARTUP = 3
 CYCLES_MEASURED = 8
 FORCE_EVERY = 10                # floor force / overlap sampling [steps]
-SEED = 12345
+SEED = 12345                    # the random insertion of the settled bed (--seed: another packing)
+DEFAULT_SEED = SEED
 E_FLOOR = None        # restitution of the sphere-floor contacts when it differs from E_REST (--floor-restitution)
 
 MASS = RHO * math.pi * D ** 3 / 6.0
@@ -326,7 +327,8 @@ def write_data(path: Path, pos: np.ndarray, lx: float, zlo: float, zhi: float) -
 
 
 def tag(n: int, lateral: float) -> str:
-    return f"N{n}_L{lateral:g}d"
+    """N<n>_L<L/d>d, and _seed<s> for a packing poured with another seed than the default's."""
+    return f"N{n}_L{lateral:g}d" + ("" if SEED == DEFAULT_SEED else f"_seed{SEED}")
 
 
 def box_top(n: int, lx: float) -> float:
@@ -639,7 +641,7 @@ def vibrate(gamma: float, n: int, lateral: float, model: str, mu: float,
     st = WORK / f"settle_{tag(n, lateral)}_walton_braun"
     if not (st / "settled.restart").exists():
         raise SystemExit(f"run --settle --n {n} --lateral {lateral} first")
-    name = run_name(gamma, n, lateral, model, mu)
+    name = run_name(gamma, n, lateral, model, mu, cycles_startup, cycles_measured)
     wd = WORK / name
     wd.mkdir(parents=True, exist_ok=True)
     write_floor_stl(wd / "floor.stl", lx)
@@ -701,6 +703,8 @@ run {nsteps}
             "loop_time_s": loop_time(wd / "log.vibrate")}
     if E_FLOOR is not None:
         meta["floor_restitution"] = E_FLOOR
+    if SEED != DEFAULT_SEED:
+        meta["seed"] = SEED
     (wd / "meta.json").write_text(json.dumps(meta, indent=2))
     return postprocess(name)
 
@@ -726,7 +730,9 @@ def loop_time(log: Path) -> float | None:
     return None
 
 
-def run_name(gamma, n, lateral, model, mu) -> str:
+def run_name(gamma, n, lateral, model, mu, cycles_startup=CYCLES_STARTUP, cycles_measured=CYCLES_MEASURED) -> str:
+    """The run's folder name: gamma_<Γ>_<tag>, then _e<e>, _<law>, _mu<μ>, _ew<e_w> where they are
+    not the main bed's, and _c<cycles> for a run of another length than 3 + 8 cycles."""
     s = f"gamma_{gamma:.2f}_{tag(n, lateral)}"
     if E_REST != 0.9:
         s += f"_e{E_REST:g}"
@@ -736,6 +742,9 @@ def run_name(gamma, n, lateral, model, mu) -> str:
         s += f"_mu{mu:g}"
     if E_FLOOR is not None:
         s += f"_ew{E_FLOOR:g}"
+    if (cycles_startup, cycles_measured) != (CYCLES_STARTUP, CYCLES_MEASURED):
+        s += f"_c{cycles_startup + cycles_measured}" + ("" if cycles_startup == CYCLES_STARTUP
+                                                         else f"s{cycles_startup}")
     return s
 
 
@@ -823,6 +832,85 @@ def refresh_thresholds(name: str) -> None:
                             meta["cycles_startup"] + meta["cycles_measured"])
 
 
+CRYSTAL_BOND_CUT = 1.2       # neighbours within 1.2 d
+CRYSTAL_DOT = 0.7            # ten Wolde-Frenkel: a crystal-like bond has q6(i).q6(j) > 0.7 ...
+CRYSTAL_MIN_BONDS = 7        # ... and a crystal-like sphere at least 7 of them
+
+
+def _y6(polar: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
+    """The spherical harmonics Y_6m, m = -6..6, of the bond directions: array (13, n)."""
+    try:
+        from scipy.special import sph_harm_y
+        return np.array([sph_harm_y(6, m, polar, azimuth) for m in range(-6, 7)])
+    except ImportError:                                   # scipy < 1.15
+        from scipy.special import sph_harm
+        return np.array([sph_harm(m, 6, azimuth, polar) for m in range(-6, 7)])
+
+
+def crystal_fraction(x: np.ndarray, lx: float) -> float:
+    """Fraction of crystal-like spheres (ten Wolde, Ruiz-Montero and Frenkel 1996): the normalised
+    q6 vector of each sphere, q6m(i) = mean over its neighbours (centres closer than 1.2 d,
+    laterally periodic box of side lx) of Y_6m(bond), and a sphere is crystal-like when at least 7
+    of its bonds have q6(i).q6(j) > 0.7. About 0 in a random packing or a gas, 1 inside an fcc/hcp
+    crystal (the free top and the floor layer lower it)."""
+    from scipy.spatial import cKDTree
+    p = np.array(x[:, :3], dtype=float)
+    p[:, :2] %= lx
+    p[:, 2] -= p[:, 2].min()
+    tree = cKDTree(p, boxsize=[lx, lx, p[:, 2].max() + 10.0 * D])
+    pairs = tree.query_pairs(CRYSTAL_BOND_CUT * D, output_type="ndarray")
+    if len(pairs) == 0:
+        return 0.0
+    b = p[pairs[:, 1]] - p[pairs[:, 0]]
+    b[:, :2] -= lx * np.round(b[:, :2] / lx)
+    r = np.linalg.norm(b, axis=1)
+    y = _y6(np.arccos(np.clip(b[:, 2] / r, -1.0, 1.0)), np.arctan2(b[:, 1], b[:, 0]))   # Y_6m(-b) = Y_6m(b)
+    n = len(p)
+    q = np.zeros((13, n), dtype=complex)
+    cnt = np.zeros(n)
+    for end in (0, 1):
+        for m in range(13):
+            np.add.at(q[m], pairs[:, end], y[m])
+        np.add.at(cnt, pairs[:, end], 1.0)
+    norm = np.sqrt(np.sum(np.abs(q) ** 2, axis=0))
+    q = np.where(norm > 0.0, q / np.where(norm > 0.0, norm, 1.0), 0.0)
+    dots = np.real(np.sum(q[:, pairs[:, 0]] * np.conj(q[:, pairs[:, 1]]), axis=0))
+    bonds = np.zeros(n)
+    good = dots > CRYSTAL_DOT
+    np.add.at(bonds, pairs[good, 0], 1.0)
+    np.add.at(bonds, pairs[good, 1], 1.0)
+    return float(np.mean(bonds >= CRYSTAL_MIN_BONDS))
+
+
+def write_structure(out: Path, frames, meta: dict) -> None:
+    """structure_per_cycle.csv: at the start of every cycle (floor phase 0, floor at rest height,
+    moving up), the mass centre's height above the floor, the solid fraction between 1 d and 6 d
+    above it (coarse-grained as profiles.csv), and the crystal-like fraction of the spheres
+    (:func:`crystal_fraction`)."""
+    dt, amp, lx = meta["dt_s"], meta["amplitude_m"], meta["lx_m"]
+    zg = np.arange(1.0 * D, 6.0 * D + 1e-12, D / 10)
+    with open(out / "structure_per_cycle.csv", "w") as f:
+        f.write("# at floor phase 0 of every cycle (t = cycle T): com_rel_over_d mass-centre height above the floor "
+                "[d]; phi_1_6d the coarse-grained (sigma = d/2) solid fraction averaged over 1 d to 6 d above the "
+                "floor; crystal_fraction the fraction of crystal-like spheres (q6 bonds, ten Wolde-Frenkel: "
+                "neighbours within 1.2 d, q6.q6 > 0.7, at least 7 bonds)\n")
+        f.write("cycle,com_rel_over_d,phi_1_6d,crystal_fraction\n")
+        for (step, ids, x) in frames:
+            c = step * dt / PERIOD
+            if abs(c - round(c)) > 1e-6:
+                continue
+            zf = amp * math.sin(OMEGA * step * dt)
+            z = x[:, 2] - zf
+            f.write(f"{int(round(c))},{z.mean() / D:.4f},{cg_profile(z, zg, lx).mean():.4f},"
+                    f"{crystal_fraction(x, lx):.4f}\n")
+
+
+def refresh_structure(name: str) -> None:
+    """Write results/<name>/structure_per_cycle.csv from work/<name>/bed.dump (no LIGGGHTS run)."""
+    wd = WORK / name
+    write_structure(RESULTS / name, read_dump(wd / "bed.dump"), json.loads((wd / "meta.json").read_text()))
+
+
 def refresh_floor_force(name: str) -> None:
     """Rewrite results/<name>/floor_force.csv from work/<name>/floor.txt."""
     wd = WORK / name
@@ -887,6 +975,7 @@ def postprocess(name: str) -> dict:
 
     # --- positions (every 1/(40 f))
     frames = read_dump(wd / "bed.dump")
+    write_structure(out, frames, meta)
     nz = None
     tr = []
     zg = np.arange(-1.0 * D, 30.0 * D * max(1.0, meta["n"] / 2000 * (13.0 / meta["lateral_d"]) ** 2), D / 10)
@@ -1063,7 +1152,9 @@ def summary() -> None:
               ("walton_braun", 0.0, 0.9, "flight_vs_gamma_ew1.csv", "ew1", 1.0))
     for model_, mu_, e_val, fname, key, e_floor in groups:
         main = [s for s in rows if s["n"] == 2000 and s["model"] == model_ and s["friction"] == mu_
-                and s.get("restitution", 0.9) == e_val and s.get("floor_restitution") == e_floor]
+                and s.get("restitution", 0.9) == e_val and s.get("floor_restitution") == e_floor
+                and s.get("seed") is None
+                and (s["cycles_startup"], s["cycles_measured"]) == (CYCLES_STARTUP, CYCLES_MEASURED)]
         if not main:
             continue
         main.sort(key=lambda s: s["gamma"])
@@ -1091,7 +1182,7 @@ def summary() -> None:
     params["period_doubling_note"] = ("main runs (e=0.9, frictionless): no period doubling for 1.5 <= Gamma <= 6 "
                                       "(null); e=0.5 runs are exploratory (same settled bed, same K and dt)")
     params["runs"] = [{k: s.get(k) for k in ("name", "gamma", "n", "lateral_d", "model", "friction", "restitution",
-                                         "floor_restitution", "wall_time_s", "cpu_time_s", "loop_time_s", "steps", "flight_time_mean_s",
+                                         "floor_restitution", "seed", "cycles_measured", "wall_time_s", "cpu_time_s", "loop_time_s", "steps", "flight_time_mean_s",
                                          "flight_time_mean_last6_s", "gap_flight_time_mean_last6_s",
                                          "period_doubled", "period_doubled_last6", "com_period2",
                                          "max_overlap_pair_over_d",
@@ -1144,7 +1235,7 @@ def write_params(extra: dict) -> None:
 
 
 def main(argv=None):
-    global E_REST, E_FLOOR, WORK, RESULTS, OUT
+    global E_REST, E_FLOOR, WORK, RESULTS, OUT, SEED
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--check", action="store_true", help="single-sphere / two-sphere contact checks")
     ap.add_argument("--settle", action="store_true", help="pour and settle the bed")
@@ -1161,9 +1252,15 @@ def main(argv=None):
                     help="e of the sphere-floor contacts only (default: --restitution's); the runs' folders "
                          "end in _ew<E>")
     ap.add_argument("--post", metavar="RUN", help="re-run the post-processing of work/RUN")
+    ap.add_argument("--seed", type=int, default=DEFAULT_SEED, metavar="S",
+                    help=f"seed of the random insertion before settling (default {DEFAULT_SEED}); another seed "
+                         "pours another packing of the same bed: its settle and vibration folders end in _seed<S>")
     ap.add_argument("--thresholds", metavar="RUN", nargs="+",
                     help="write results/RUN/flight_vs_threshold.csv from work/RUN/floor.txt ('all': every run "
                          "with one), without running LIGGGHTS")
+    ap.add_argument("--structure", metavar="RUN", nargs="+",
+                    help="write results/RUN/structure_per_cycle.csv from work/RUN/bed.dump ('all': every run with "
+                         "one), without running LIGGGHTS")
     ap.add_argument("--summary", action="store_true")
     ap.add_argument("--settle-post", action="store_true", help="redo the packing statistics")
     ap.add_argument("--root", metavar="DIR", help="write work/, results/ and the JSON files under DIR instead of "
@@ -1183,8 +1280,13 @@ def main(argv=None):
     if a.floor_restitution is not None and (a.check or a.settle or a.settle_post):
         ap.error("argument --floor-restitution: only for the vibration runs (--gamma); --check, --settle and "
                  "--settle-post keep the contact law's e at the floor")
+    if not 0 <= a.seed < 2 ** 32:
+        ap.error(f"argument --seed: {a.seed!r} is outside the valid range [0, 2^32)")
+    if a.seed != DEFAULT_SEED and a.check:
+        ap.error("argument --seed: only for --settle, --settle-post and --gamma (the contact checks use no packing)")
     E_REST = a.restitution
     E_FLOOR = a.floor_restitution
+    SEED = a.seed
     if a.root:
         OUT = Path(a.root).resolve()
         WORK, RESULTS = OUT / "work", OUT / "results"
@@ -1228,6 +1330,16 @@ def main(argv=None):
         for name in names:
             refresh_thresholds(name)
             print(f"results/{name}/flight_vs_threshold.csv")
+    if a.structure:
+        names = a.structure
+        if names == ["all"]:
+            names = sorted(p.parent.name for p in WORK.glob("gamma_*/bed.dump"))
+        for name in names:
+            if not (WORK / name / "bed.dump").exists():
+                ap.error(f"argument --structure: {name!r} has no work/{name}/bed.dump (run it with --gamma)")
+        for name in names:
+            refresh_structure(name)
+            print(f"results/{name}/structure_per_cycle.csv")
     if a.summary:
         summary()
 

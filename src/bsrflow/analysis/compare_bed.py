@@ -24,7 +24,11 @@ at the same Γ (``spring_dashpot_cases``: the same K and e, another contact law)
 run with the reference's lateral-size run (``large_box_cases``: N = 10 000 in a 29 d box).  The
 main bed with elastic sphere–floor contacts (``elastic_floor_cases``, at the Γ it was run) is
 compared with the continuum whose floor loss is elastic too (``floor_restitution`` = 1), and
-``floor_contact_effect`` gives, per Γ, what the floor's restitution alone changes in either.  The
+``floor_contact_effect`` gives, per Γ, what the floor's restitution alone changes in either.
+The same continuum runs against the main bed poured with other seeds (``other_packing_cases``,
+``packing_spread``: the reference value's own spread over packings), where it was, and continuum
+runs of 30 cycles against the main bed's 30-cycle LIGGGHTS runs (``long_reference_cases``, where
+they were run; LIGGGHTS's crystal-like fraction per cycle in ``dem_structure``).  The
 frictional runs twice: against the smooth continuum at Γ = 3 (the effect of friction, reported,
 not tuned away) and against the continuum with friction μ = 0.5, which
 enters only as the collisional losses' effective restitution e − (3/2)μ exp(−3μ) (Chialvo and
@@ -262,6 +266,12 @@ def _case_against(run, setup: BedSetup, ref: Path, tag: str):
         by_threshold = _flight_by_threshold(res, ref, s, tag)
         if by_threshold is not None:
             case["flight_by_threshold"] = by_threshold
+        structure = _run_dir(ref, s.gamma, tag) / "structure_per_cycle.csv"
+        if structure.exists():
+            rows = np.atleast_1d(_read_csv(structure))
+            case["dem_structure"] = {"cycle": [int(v) for v in rows["cycle"]],
+                                     "crystal_fraction": [float(v) for v in rows["crystal_fraction"]],
+                                     "phi_1_6d": [float(v) for v in rows["phi_1_6d"]]}
     return case, traj
 
 
@@ -527,6 +537,22 @@ ELASTIC_FLOOR = "N2000_L13d_ew1"
 """The tag of the main bed with elastic sphere–floor contacts (Walton–Braun, e = 0.9 between the
 spheres, unloading stiffness K at the floor: e_w = 1; ``--floor-restitution 1``)."""
 ELASTIC_FLOOR_RUNS = "LIGGGHTS Walton-Braun, elastic sphere-floor contacts; the continuum with floor_restitution 1"
+LONG_REFERENCE = MAIN_RUNS + f"_c{LONG_CYCLES}"
+"""The tag of the main bed's longer LIGGGHTS runs (3 + 27 cycles, ``run_liggghts.py --measured
+27``): the same bed, packing and law, followed to cycle 30."""
+LONG_REFERENCE_RUNS = f"LIGGGHTS Walton-Braun, {LONG_CYCLES} cycles; the continuum over {LONG_CYCLES} cycles too"
+OTHER_PACKING = MAIN_RUNS + "_seed"
+"""The tags' start of the main bed poured with other seeds (``run_liggghts.py --seed S``: another
+random packing of the same spheres, settled alike), ``N2000_L13d_seed<S>``."""
+
+
+def _other_packing_tags(ref: Path, gamma: float) -> list:
+    """The tags of the reference's other-packing runs at Γ = ``gamma`` (the main bed's law and
+    floor, by seed; not the variants of such a packing, whose tags go on after the seed)."""
+    pre = f"gamma_{gamma:.2f}_"
+    found = [p.name[len(pre):] for p in (Path(ref) / "results").glob(f"{pre}{OTHER_PACKING}*")
+             if p.name[len(pre) + len(OTHER_PACKING):].isdigit() and (p / "trajectory.csv").exists()]
+    return sorted(found, key=lambda t: int(t[len(OTHER_PACKING):]))
 
 MODEL = ("packing stress + granular temperature (bsrflow.physics.granular_bed), horizontally uniform bed "
          "(1-D limit of the 3-D bed)")
@@ -544,6 +570,7 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
     known, params, base = reference_bed(ref, n_cells)
     gammas = [float(g) for g in (known if gammas is None else gammas)]
     cases, runs, extra, long_runs, spring_dashpot, large_box, elastic_floor = [], {}, [], [], [], [], []
+    other_packing, long_reference = [], []
     # (kind, setup, reference tag, list it joins, what the reference run is)
     tasks = [("case", base.with_(gamma=g), MAIN_RUNS, cases, None) for g in gammas]
     if include_extra:
@@ -560,6 +587,9 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                   for g in LONG_FRICTION_GAMMAS]
         tasks += [("case", base.with_(gamma=float(g), floor_restitution=1.0), ELASTIC_FLOOR, elastic_floor,
                    ELASTIC_FLOOR_RUNS) for g in params.get("gamma_list_elastic_floor") or [] if float(g) in gammas]
+        tasks += [("case", base.with_(gamma=g, cycles=LONG_CYCLES), LONG_REFERENCE, long_reference,
+                   LONG_REFERENCE_RUNS) for g in gammas
+                  if (_run_dir(ref, g, LONG_REFERENCE) / "trajectory.csv").exists()]
 
     def finish(task, got):
         kind, setup, _, into, dem = task
@@ -586,6 +616,13 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                     other["dem"] = label
                     joins.append(other)
                     _log_case(other, label)
+            # and the same bed poured with other seeds, where it was
+            for tag in (_other_packing_tags(ref, setup.gamma) if include_extra else []):
+                other, _ = _case_against(run, setup, ref, tag)
+                other["dem"] = f"LIGGGHTS Walton-Braun, another packing (seed {tag[len(OTHER_PACKING):]})"
+                other["dem_tag"] = tag
+                other_packing.append(other)
+                _log_case(other, other["dem"])
 
     def _log_case(case, dem):
         if log:
@@ -608,7 +645,9 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
     except (KeyboardInterrupt, SimulationError) as exc:
         exc.partial = {"model": MODEL, "fitted_constants": {}, "n_cells": n_cells, "cases": cases,
                        "extra_cases": extra, "spring_dashpot_cases": spring_dashpot, "large_box_cases": large_box,
-                       "elastic_floor_cases": elastic_floor, f"friction_{LONG_CYCLES}_cycles_runs": long_runs}
+                       "elastic_floor_cases": elastic_floor, "other_packing_cases": other_packing,
+                       "long_reference_cases": long_reference,
+                       f"friction_{LONG_CYCLES}_cycles_runs": long_runs}
         raise
     g3 = next((c for c in cases if c["gamma"] == 3.0), None)
     out = {
@@ -643,6 +682,20 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                            "uniform continuum is the same for both boxes, so the difference between the two references "
                            "is the DEM's own box-size effect"),
         "elastic_floor_cases": elastic_floor,
+        "other_packing_cases": other_packing,
+        "long_reference_cases": long_reference,
+        "long_reference_note": (f"the main bed followed to cycle {LONG_CYCLES} (LIGGGHTS run_liggghts.py --measured "
+                                f"{LONG_CYCLES - STARTUP_CYCLES}, the same packing and law) against the continuum over "
+                                f"{LONG_CYCLES} cycles: the flights are the last six finished ones (cycles "
+                                f"{LONG_CYCLES - 6}-{LONG_CYCLES - 1}); the mass-centre RMS keeps its window "
+                                "(3T-8T); dem_structure: LIGGGHTS's crystal-like fraction and solid fraction at the "
+                                "start of every cycle (structure_per_cycle.csv)"),
+        "packing_spread": _packing_spread(cases, other_packing, ref, base),
+        "packing_spread_note": ("the main bed poured with other seeds of the random insertion (run_liggghts.py "
+                                "--seed S: another packing of the same spheres, settled and vibrated alike) at the "
+                                "Gamma it was run: LIGGGHTS's flight over the packings (sample standard deviation) "
+                                "and the continuum's difference from their mean, beside the criterion's difference "
+                                "from the main packing; the spread is the reference value's own uncertainty"),
         "floor_contact_effect": _floor_contact_effect(cases, elastic_floor, ref, base),
         "floor_contact_note": ("the sphere-floor contacts' restitution alone changed, 0.9 -> 1 (elastic), in LIGGGHTS "
                                "(Walton-Braun, the main bed's settled packing) and in the continuum (floor_restitution: "
@@ -684,10 +737,43 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
     if not include_extra:
         for key in ("period_doubling_gamma_friction_mu0.5", "spring_dashpot_cases", "spring_dashpot_note",
                     "period_doubling_gamma_spring_dashpot", "large_box_cases", "large_box_note",
-                    "elastic_floor_cases", "floor_contact_effect", "floor_contact_note"):
+                    "elastic_floor_cases", "floor_contact_effect", "floor_contact_note", "other_packing_cases",
+                    "long_reference_cases", "long_reference_note",
+                    "packing_spread", "packing_spread_note"):
             del out[key]
     if figures:
         _figures(out, runs, base, Path(figures), ref)
+    return out
+
+
+def _packing_spread(cases, other_packing, ref: Path, s: BedSetup) -> list:
+    """Per Γ with other-packing runs: LIGGGHTS's flights over every packing (the main one first),
+    their mean and sample standard deviation, the continuum's difference from that mean, and the
+    RMS difference [d] of each other packing's mass centre from the main one's over the window of
+    ``mass_centre_rms_over_d``."""
+    main = {c["gamma"]: c for c in cases}
+    out = []
+    for g in sorted({c["gamma"] for c in other_packing}):
+        c = main.get(g)
+        if c is None or "dem_flight_time_s" not in c:
+            continue
+        others = [o for o in other_packing if o["gamma"] == g and "dem_flight_time_s" in o]
+        flights = [c["dem_flight_time_s"]] + [o["dem_flight_time_s"] for o in others]
+        a, _ = _reference_case(ref, g, MAIN_RUNS)
+        sel = _rms_window(a["t_s"], s.period)
+        rms = []
+        for o in others:
+            b, _ = _reference_case(ref, g, o["dem_tag"])
+            rms.append(float(math.sqrt(np.mean((np.interp(a["t_s"][sel], b["t_s"], b["com_rel_m"])
+                                                 - a["com_rel_m"][sel]) ** 2)) / s.diameter))
+        mean = float(np.mean(flights))
+        out.append({"gamma": g, "packings": ["main"] + [o["dem"] for o in others], "dem_flight_time_s": flights,
+                    "dem_flight_mean_s": mean, "dem_flight_std_s": float(np.std(flights, ddof=1)),
+                    "dem_flight_std_rel": float(np.std(flights, ddof=1)) / mean,
+                    "continuum_flight_time_s": c["flight_time_s"],
+                    "continuum_rel_diff_to_mean": c["flight_time_s"] / mean - 1.0,
+                    "continuum_rel_diff_to_main": c["flight_time_rel_diff"],
+                    "dem_mass_centre_rms_from_main_over_d": rms})
     return out
 
 
@@ -800,6 +886,39 @@ def _flight_threshold_figure(out, folder, plt):
     axes[0][0].legend(title="floor force below", fontsize=8)
     _save_figure(fig, "Flight per cycle with the floor force cut at several fractions of the bed weight (grey: ±5 %)",
                  folder / "bed_flight_vs_threshold.png", plt)
+
+
+def _long_reference_figure(out, folder, plt, ref):
+    """bed_long_runs.png: the flight per cycle over the long runs (both models) and LIGGGHTS's
+    crystal-like fraction, one panel per Γ; nothing written without long runs."""
+    cs = out.get("long_reference_cases") or []
+    if not cs:
+        return
+    fig, axes = plt.subplots(1, len(cs), figsize=(max(7.0, 4.2 * len(cs)), 4.0), squeeze=False)
+    for ax, c in zip(axes[0], cs):
+        n = len(c["flight_time_per_cycle_s"])
+        ax.plot(range(n), [1e3 * v if v is not None else np.nan for v in c["flight_time_per_cycle_s"]], "o-", ms=3,
+                label="continuum")
+        summ = json.loads((_run_dir(ref, c["gamma"], LONG_REFERENCE) / "summary.json").read_text())
+        dem = summ["flight_time_per_cycle_s"]
+        ax.plot(range(STARTUP_CYCLES, STARTUP_CYCLES + len(dem)), [1e3 * v if v is not None else np.nan for v in dem],
+                "s--", ms=3, color="C1", label="LIGGGHTS Walton–Braun")
+        ax.set_ylim(0.0, 45.0)
+        ax.set_xlabel("cycle (the floor's period T = 1/f)")
+        ax.set_title(f"Γ = {c['gamma']:g}", fontsize=10)
+        if "dem_structure" in c:
+            ax2 = ax.twinx()
+            st = c["dem_structure"]
+            ax2.plot(st["cycle"], st["crystal_fraction"], ":", color="C2", label="LIGGGHTS crystal-like fraction")
+            ax2.set_ylim(0.0, 1.0)
+            if ax is axes[0][-1]:
+                ax2.set_ylabel("crystal-like fraction of the spheres (q6)", color="C2")
+            if ax is axes[0][0]:
+                ax2.legend(loc="lower right", fontsize=8)
+    axes[0][0].set_ylabel("flight time per cycle [ms] (0.1 M g)")
+    axes[0][0].legend(loc="upper right", fontsize=8)
+    _save_figure(fig, f"The bed over {LONG_CYCLES} cycles: flights and LIGGGHTS's crystallisation",
+                 folder / "bed_long_runs.png", plt)
 
 
 def _floor_force_figure(out, folder, plt, gamma=3.0):
@@ -915,6 +1034,7 @@ def _figures(out, runs, base, folder, ref=REFERENCE):
     _temperature_vs_gamma_figure(out, folder, plt)
     _floor_force_figure(out, folder, plt)
     _flight_threshold_figure(out, folder, plt)
+    _long_reference_figure(out, folder, plt, Path(ref))
     if 3.0 in runs:
         res, traj = runs[3.0]
         fig, ax = plt.subplots(figsize=(7, 4))
@@ -1050,7 +1170,8 @@ def format_table(out) -> str:
     rows = ["| Γ | flight continuum [ms] | flight LIGGGHTS [ms] | difference | mass-centre RMS [d] | period doubled "
             "(continuum / LIGGGHTS) |", "|---|---|---|---|---|---|"]
     for c in (out["cases"] + out["extra_cases"] + out.get("spring_dashpot_cases", []) + out.get("large_box_cases", [])
-              + out.get("elastic_floor_cases", [])):
+              + out.get("elastic_floor_cases", []) + out.get("other_packing_cases", [])
+              + out.get("long_reference_cases", [])):
         name = f"{c['gamma']:g}" + ("" if "dem" not in c else f" ({c['dem']})")
         rows.append(f"| {name} | {1e3 * c['flight_time_s']:.1f} | {1e3 * c.get('dem_flight_time_s', float('nan')):.1f} | "
                     f"{100 * c.get('flight_time_rel_diff', float('nan')):+.1f} % | "
@@ -1147,6 +1268,11 @@ def _main(args) -> int:
               + (f"; LIGGGHTS at floor e = 0.95 {1e3 * dem['floor_e0.95']:.1f} ms" if "floor_e0.95" in dem else "")
               + (f"; LIGGGHTS spring-dashpot {1e3 * dem['spring_dashpot_floor_e']:.1f} -> "
                  f"{1e3 * dem['spring_dashpot_floor_elastic']:.1f} ms" if "spring_dashpot_floor_elastic" in dem else ""))
+    for f in out.get("packing_spread") or []:
+        print(f"other packings, Γ = {f['gamma']:g}: LIGGGHTS flight over {len(f['dem_flight_time_s'])} packings "
+              f"{1e3 * f['dem_flight_mean_s']:.1f} ± {1e3 * f['dem_flight_std_s']:.1f} ms (sample std), "
+              f"continuum {1e3 * f['continuum_flight_time_s']:.1f} ms: {100 * f['continuum_rel_diff_to_mean']:+.1f} % "
+              f"from the mean ({100 * f['continuum_rel_diff_to_main']:+.1f} % from the main packing's)")
     psd = out.get("period_doubling_gamma_spring_dashpot")
     if psd is not None:
         print(f"period-doubling Γ against the spring-dashpot bed: continuum {gamma_text(psd['continuum'])}, "
