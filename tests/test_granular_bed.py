@@ -852,6 +852,9 @@ def test_compare_bed_compares_each_main_run_with_the_spring_dashpot_bed_too(tmp_
     lr = data["long_reference_cases"]
     assert 3.0 in [c["gamma"] for c in lr] and "long_reference_note" in data
     l3 = next(c for c in lr if c["gamma"] == 3.0)
+    assert l3["dem_tag"] == "N2000_L13d_c30"
+    assert [c["dem_tag"] for c in lr if c["gamma"] == 3.0][1:] == [f"N2000_L13d_seed{k}_c30" for k in seeds
+                                                                    if (root / f"gamma_3.00_N2000_L13d_seed{k}_c30").exists()]
     assert len(l3["flight_time_per_cycle_s"]) == 30
     summ = json.loads((root / "gamma_3.00_N2000_L13d_c30" / "summary.json").read_text())
     assert l3["dem_flight_time_s"] == pytest.approx(np.mean([v for v in summ["flight_time_per_cycle_s"] if v][-6:]))
@@ -889,6 +892,15 @@ def test_other_packing_tags_are_found_in_seed_order(tmp_path):
     assert _other_packing_tags(tmp_path, 3.0) == ["N2000_L13d_seed2", "N2000_L13d_seed10"]
     assert _other_packing_tags(tmp_path, 2.0) == ["N2000_L13d_seed1"]
     assert _other_packing_tags(tmp_path, 4.0) == []
+    # and the 30-cycle runs: the main packing's first, then the others' by seed
+    from bsrflow.analysis.compare_bed import _long_reference_tags
+    for name in ("gamma_3.00_N2000_L13d_seed4_c30", "gamma_3.00_N2000_L13d_c30", "gamma_3.00_N2000_L13d_seed1_c30"):
+        (tmp_path / "results" / name).mkdir(parents=True)
+        (tmp_path / "results" / name / "trajectory.csv").write_text("t_s\n")
+    assert _other_packing_tags(tmp_path, 3.0) == ["N2000_L13d_seed2", "N2000_L13d_seed10"]
+    assert _long_reference_tags(tmp_path, 3.0) == [("N2000_L13d_c30", None), ("N2000_L13d_seed1_c30", 1),
+                                                   ("N2000_L13d_seed4_c30", 4)]
+    assert _long_reference_tags(tmp_path, 2.0) == []
 
 
 def test_reference_run_of_another_length_has_its_own_folder():

@@ -546,13 +546,27 @@ OTHER_PACKING = MAIN_RUNS + "_seed"
 random packing of the same spheres, settled alike), ``N2000_L13d_seed<S>``."""
 
 
-def _other_packing_tags(ref: Path, gamma: float) -> list:
+def _long_reference_tags(ref: Path, gamma: float) -> list:
+    """[(tag, seed)] of the reference's 30-cycle runs at Γ = ``gamma``: the main packing's first
+    (seed None), then those of other packings by seed."""
+    out = [(LONG_REFERENCE, None)] if (_run_dir(ref, gamma, LONG_REFERENCE) / "trajectory.csv").exists() else []
+    for tag in _other_packing_tags(ref, gamma, suffix=f"_c{LONG_CYCLES}"):
+        out.append((tag, int(tag[len(OTHER_PACKING):-len(f"_c{LONG_CYCLES}")])))
+    return out
+
+
+def _other_packing_tags(ref: Path, gamma: float, suffix: str = "") -> list:
     """The tags of the reference's other-packing runs at Γ = ``gamma`` (the main bed's law and
     floor, by seed; not the variants of such a packing, whose tags go on after the seed)."""
     pre = f"gamma_{gamma:.2f}_"
+
+    def seed(name):
+        rest = name[len(pre) + len(OTHER_PACKING):]
+        return rest[:len(rest) - len(suffix)] if suffix and rest.endswith(suffix) else (rest if not suffix else "")
+
     found = [p.name[len(pre):] for p in (Path(ref) / "results").glob(f"{pre}{OTHER_PACKING}*")
-             if p.name[len(pre) + len(OTHER_PACKING):].isdigit() and (p / "trajectory.csv").exists()]
-    return sorted(found, key=lambda t: int(t[len(OTHER_PACKING):]))
+             if seed(p.name).isdigit() and (p / "trajectory.csv").exists()]
+    return sorted(found, key=lambda t: int(seed(pre + t)))
 
 MODEL = ("packing stress + granular temperature (bsrflow.physics.granular_bed), horizontally uniform bed "
          "(1-D limit of the 3-D bed)")
@@ -587,9 +601,9 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                   for g in LONG_FRICTION_GAMMAS]
         tasks += [("case", base.with_(gamma=float(g), floor_restitution=1.0), ELASTIC_FLOOR, elastic_floor,
                    ELASTIC_FLOOR_RUNS) for g in params.get("gamma_list_elastic_floor") or [] if float(g) in gammas]
-        tasks += [("case", base.with_(gamma=g, cycles=LONG_CYCLES), LONG_REFERENCE, long_reference,
-                   LONG_REFERENCE_RUNS) for g in gammas
-                  if (_run_dir(ref, g, LONG_REFERENCE) / "trajectory.csv").exists()]
+        tasks += [("case", base.with_(gamma=g, cycles=LONG_CYCLES), tag, long_reference,
+                   LONG_REFERENCE_RUNS + ("" if tag == LONG_REFERENCE else f" (packing of seed {seed})"))
+                  for g in gammas for tag, seed in _long_reference_tags(ref, g)]
 
     def finish(task, got):
         kind, setup, _, into, dem = task
@@ -603,6 +617,8 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
         _, case, run, traj = got
         if dem is not None:
             case["dem"] = dem
+        if into is long_reference:
+            case["dem_tag"] = task[2]
         into.append(case)
         _log_case(case, dem)
         if into is cases:
@@ -899,13 +915,15 @@ def _long_reference_figure(out, folder, plt, ref):
         n = len(c["flight_time_per_cycle_s"])
         ax.plot(range(n), [1e3 * v if v is not None else np.nan for v in c["flight_time_per_cycle_s"]], "o-", ms=3,
                 label="continuum")
-        summ = json.loads((_run_dir(ref, c["gamma"], LONG_REFERENCE) / "summary.json").read_text())
+        summ = json.loads((_run_dir(ref, c["gamma"], c["dem_tag"]) / "summary.json").read_text())
         dem = summ["flight_time_per_cycle_s"]
         ax.plot(range(STARTUP_CYCLES, STARTUP_CYCLES + len(dem)), [1e3 * v if v is not None else np.nan for v in dem],
                 "s--", ms=3, color="C1", label="LIGGGHTS Walton–Braun")
         ax.set_ylim(0.0, 45.0)
         ax.set_xlabel("cycle (the floor's period T = 1/f)")
-        ax.set_title(f"Γ = {c['gamma']:g}", fontsize=10)
+        ax.set_title(f"Γ = {c['gamma']:g}" + ("" if c["dem_tag"] == LONG_REFERENCE else
+                                               f", packing of seed {c['dem_tag'].split('_seed')[1].split('_')[0]}"),
+                     fontsize=10)
         if "dem_structure" in c:
             ax2 = ax.twinx()
             st = c["dem_structure"]
