@@ -298,11 +298,12 @@ def test_flight_definition_is_the_reference_scripts():
 
 def test_committed_threshold_tables_agree_with_the_runs_summaries():
     """Every committed flight_vs_threshold.csv has the script's thresholds, its 0.1 row is the
-    run's own flight (summary.json, last six finished flights), and a higher threshold never
-    shortens the flight."""
+    run's own flight (summary.json, last six finished flights), and in every committed run a higher
+    threshold gives a longer flight (a property of these data: at a high cut two flights could
+    merge across cycles)."""
     mod = _reference_script()
     root = Path(__file__).resolve().parents[1] / "reference" / "liggghts_bed" / "results"
-    tables = sorted(root.glob("*/flight_vs_threshold.csv"))
+    tables = sorted(p for p in root.glob("*/flight_vs_threshold.csv") if (p.parent / "summary.json").exists())
     assert len(tables) >= 40 and (root / "gamma_3.00_N2000_L13d" / "flight_vs_threshold.csv") in tables
     for path in tables:
         rows = np.genfromtxt(path, delimiter=",", names=True, skip_header=1)
@@ -848,16 +849,28 @@ def test_compare_bed_compares_each_main_run_with_the_spring_dashpot_bed_too(tmp_
     assert spread["continuum_rel_diff_to_mean"] == pytest.approx(main_case["flight_time_s"] / np.mean(own) - 1, rel=1e-12)
     assert spread["continuum_rel_diff_to_main"] == main_case["flight_time_rel_diff"]
     assert len(spread["dem_mass_centre_rms_from_main_over_d"]) == len(op)
+    late = spread["late"]                          # the 30-cycle runs' last six flights, over the packings run so
+    lr3 = [c for c in data["long_reference_cases"] if c["gamma"] == 3.0]
+    assert late["dem_flight_time_s"] == [c["dem_flight_time_s"] for c in lr3] and len(lr3) >= 2
+    assert late["continuum_rel_diff_to_mean"] == pytest.approx(
+        lr3[0]["flight_time_s"] / np.mean(late["dem_flight_time_s"]) - 1, rel=1e-12)
     # the 30-cycle runs: the continuum over 30 cycles too, its last six flights those of cycles 24-29
     lr = data["long_reference_cases"]
     assert 3.0 in [c["gamma"] for c in lr] and "long_reference_note" in data
     l3 = next(c for c in lr if c["gamma"] == 3.0)
     assert l3["dem_tag"] == "N2000_L13d_c30"
-    assert [c["dem_tag"] for c in lr if c["gamma"] == 3.0][1:] == [f"N2000_L13d_seed{k}_c30" for k in seeds
-                                                                    if (root / f"gamma_3.00_N2000_L13d_seed{k}_c30").exists()]
+    tags3 = [c["dem_tag"] for c in lr if c["gamma"] == 3.0]
+    assert tags3[1:1 + len(seeds)] == [f"N2000_L13d_seed{k}_c30" for k in seeds
+                                       if (root / f"gamma_3.00_N2000_L13d_seed{k}_c30").exists()]
+    # and the 13.5 d box (not a whole number of diameters), with the continuum at its N and side
+    box = next(c for c in lr if c["dem_tag"] == "N2157_L13.5d_c30")
+    assert box["gamma"] == 3.0 and "13.5 d box" in box["dem"] and math.isfinite(box["mass_centre_rms_over_d"])
+    # (the same spheres per area to 1e-4: the horizontally uniform continuum flies alike)
+    assert box["flight_time_s"] == pytest.approx(l3["flight_time_s"], rel=0.01)
     assert len(l3["flight_time_per_cycle_s"]) == 30
     summ = json.loads((root / "gamma_3.00_N2000_L13d_c30" / "summary.json").read_text())
-    assert l3["dem_flight_time_s"] == pytest.approx(np.mean([v for v in summ["flight_time_per_cycle_s"] if v][-6:]))
+    assert l3["dem_flight_time_s"] == pytest.approx(
+        np.mean([v for v in summ["flight_time_per_cycle_s"] if v is not None][-6:]))
     # LIGGGHTS's structure per cycle: the main packing crystallises at Γ = 3 (the crystal-like
     # fraction rises from the settled bed's to more than a third by cycle 30)
     st = l3["dem_structure"]
@@ -874,7 +887,9 @@ def test_reference_seed_option_names_its_packing_and_refuses_bad_values(monkeypa
     monkeypatch.setattr(mod, "SEED", 7)
     assert mod.tag(2000, 13.0) == "N2000_L13d_seed7"
     assert mod.run_name(3.0, 2000, 13.0, "walton_braun", 0.0) == "gamma_3.00_N2000_L13d_seed7"
-    for argv in (["--seed", "-1", "--settle"], ["--seed", "3", "--check"]):
+    assert mod.run_name(3.0, 2000, 13.0, "walton_braun", 0.0, 3, 27) == "gamma_3.00_N2000_L13d_seed7_c30"
+    for argv in (["--seed", "-1", "--settle"], ["--seed", "3", "--check"], ["--seed", str(2 ** 32), "--settle"],
+                 ["--seed", "3", "--summary"], ["--seed", "3", "--thresholds", "all"], ["--seed", "3"]):
         with pytest.raises(SystemExit) as exc:
             mod.main(argv + ["--root", str(tmp_path / "never")])
         assert exc.value.code == 2
@@ -889,6 +904,10 @@ def test_other_packing_tags_are_found_in_seed_order(tmp_path):
         (tmp_path / "results" / name).mkdir(parents=True)
         if not name.endswith("seed5"):                  # a run without its trajectory is left out
             (tmp_path / "results" / name / "trajectory.csv").write_text("t_s\n")
+        if not name.endswith("seed5"):
+            (tmp_path / "results" / name / "summary.json").write_text("{}")
+    (tmp_path / "results" / "gamma_3.00_N2000_L13d_seed7").mkdir()        # unfinished: no summary.json yet
+    (tmp_path / "results" / "gamma_3.00_N2000_L13d_seed7" / "trajectory.csv").write_text("t_s\n")
     assert _other_packing_tags(tmp_path, 3.0) == ["N2000_L13d_seed2", "N2000_L13d_seed10"]
     assert _other_packing_tags(tmp_path, 2.0) == ["N2000_L13d_seed1"]
     assert _other_packing_tags(tmp_path, 4.0) == []
@@ -897,6 +916,7 @@ def test_other_packing_tags_are_found_in_seed_order(tmp_path):
     for name in ("gamma_3.00_N2000_L13d_seed4_c30", "gamma_3.00_N2000_L13d_c30", "gamma_3.00_N2000_L13d_seed1_c30"):
         (tmp_path / "results" / name).mkdir(parents=True)
         (tmp_path / "results" / name / "trajectory.csv").write_text("t_s\n")
+        (tmp_path / "results" / name / "summary.json").write_text("{}")
     assert _other_packing_tags(tmp_path, 3.0) == ["N2000_L13d_seed2", "N2000_L13d_seed10"]
     assert _long_reference_tags(tmp_path, 3.0) == [("N2000_L13d_c30", None), ("N2000_L13d_seed1_c30", 1),
                                                    ("N2000_L13d_seed4_c30", 4)]
@@ -928,6 +948,23 @@ def test_reference_crystal_fraction_tells_fcc_from_random():
     rng = np.random.default_rng(3)
     gas = rng.uniform(0.0, n * a, fcc.shape)
     assert mod.crystal_fraction(gas, n * a) == 0.0
+    # half a crystal, half a gas above it (apart by 2 d): about half the spheres crystal-like
+    # (the crystal's top layer, with fewer crystal-like bonds, may drop out)
+    half = np.concatenate([fcc, gas + np.array([0.0, 0.0, fcc[:, 2].max() + 2.0 * d])])
+    assert 0.4 <= mod.crystal_fraction(half, n * a) <= 0.5
+    # a coordinate a hair below 0 wraps inside the box (it once wrapped to lx itself)
+    tiny = fcc.copy()
+    tiny[0, 0] = -1e-19
+    assert mod.crystal_fraction(tiny, n * a) == 1.0
+    # the floor layer's in-plane order: a square layer of spacing d (a 13 d box holds 13 x 13 of
+    # them) has |psi4| = 1, a hexagonal one |psi6| = 1; spheres above 0.8 d are not in it
+    sq = np.array([(i * d, j * d, 0.5 * d) for i in range(13) for j in range(13)])
+    assert mod.bottom_layer_order(sq, sq[:, 2], 13 * d) == (169, pytest.approx(1.0), pytest.approx(0.0, abs=1e-12))
+    hx = np.array([((i + 0.5 * (j % 2)) * d, j * d * math.sqrt(3) / 2, 0.5 * d) for i in range(12) for j in range(14)])
+    lx = 12 * d                                    # not periodic in y at this spacing: the edge rows have fewer bonds
+    n_hex, psi4, psi6 = mod.bottom_layer_order(hx, hx[:, 2] + np.where(hx[:, 1] > 13 * d * math.sqrt(3) / 2 - 1e-9,
+                                                                        d, 0.0), lx)
+    assert n_hex == 12 * 13 and psi6 > 0.95 and psi4 < 0.3
     # the committed main runs: the settled random packing is not crystalline
     root = Path(__file__).resolve().parents[1] / "reference" / "liggghts_bed" / "results"
     rows = np.genfromtxt(root / "gamma_3.00_N2000_L13d" / "structure_per_cycle.csv", delimiter=",", names=True,

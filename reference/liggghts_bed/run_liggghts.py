@@ -640,7 +640,8 @@ def vibrate(gamma: float, n: int, lateral: float, model: str, mu: float,
     lx = lateral * D
     st = WORK / f"settle_{tag(n, lateral)}_walton_braun"
     if not (st / "settled.restart").exists():
-        raise SystemExit(f"run --settle --n {n} --lateral {lateral} first")
+        raise SystemExit(f"run --settle --n {n} --lateral {lateral}"
+                         + ("" if SEED == DEFAULT_SEED else f" --seed {SEED}") + " first")
     name = run_name(gamma, n, lateral, model, mu, cycles_startup, cycles_measured)
     wd = WORK / name
     wd.mkdir(parents=True, exist_ok=True)
@@ -797,29 +798,31 @@ def write_floor_force(out: Path, t, zf, fz, weight: float) -> None:
             f.write(f"{t[i]:.6f},{zf[i]:.4e},{fz[i]:.4e}\n")
 
 
-def last_six_flights(flights, ncyc: int) -> np.ndarray:
-    """The last six finished flights [s] of the per-cycle flight times (each cycle's longest
-    flight taking off in it, 0 without one, unfinished ones dropped before counting), as
-    ``flight_time_mean_last6_s`` of summary.json."""
+def last_six_flights(flights, n0: int, ncyc: int) -> np.ndarray:
+    """The last six finished flights [s] of the measured cycles' flight times (cycles n0 to
+    ncyc - 1; each cycle's longest flight taking off in it, 0 without one, unfinished ones dropped
+    before counting), as ``flight_time_mean_last6_s`` of summary.json."""
     per = np.zeros(ncyc)
     for (t0, t1) in flights:
         c = int(math.floor(t0 / PERIOD))
         if 0 <= c < ncyc:
             per[c] = np.nan if math.isnan(t1 - t0) else max(per[c], t1 - t0)
-    return per[~np.isnan(per)][-6:]
+    tau = per[n0:]
+    return tau[~np.isnan(tau)][-6:]
 
 
-def write_flight_thresholds(out: Path, t, fz, weight: float, ncyc: int) -> None:
+def write_flight_thresholds(out: Path, t, fz, weight: float, n0: int, ncyc: int) -> None:
     """flight_vs_threshold.csv: the mean of the last six finished flights with the bed off the floor
     while the 1-ms floor force is below each of :data:`FLIGHT_THRESHOLDS` times its weight (the
     full-resolution series, every FORCE_EVERY steps)."""
     with open(out / "flight_vs_threshold.csv", "w") as f:
         f.write("# flight time per cycle (mean of the last six finished flights) against the threshold of the "
                 "1-ms moving average of the floor force, as a fraction of the bed weight M g; 0.1 is the flight "
-                "of flights.csv and summary.json\n")
+                "of flights.csv and summary.json; flight_time_std_last6_s the population standard deviation "
+                "(ddof = 0) of those six flights\n")
         f.write("threshold_over_weight,flight_time_mean_last6_s,flight_time_std_last6_s\n")
         for th in FLIGHT_THRESHOLDS:
-            last = last_six_flights(flights_from_force(t, fz, weight, th), ncyc)
+            last = last_six_flights(flights_from_force(t, fz, weight, th), n0, ncyc)
             f.write(f"{th:g},{np.mean(last):.6f},{np.std(last):.6f}\n")
 
 
@@ -828,8 +831,9 @@ def refresh_thresholds(name: str) -> None:
     wd = WORK / name
     meta = json.loads((wd / "meta.json").read_text())
     a = read_columns(wd / "floor.txt")
+    (RESULTS / name).mkdir(parents=True, exist_ok=True)
     write_flight_thresholds(RESULTS / name, a[:, 0] * meta["dt_s"], -a[:, 2], MASS * a[0, 6] * G,
-                            meta["cycles_startup"] + meta["cycles_measured"])
+                            meta["cycles_startup"], meta["cycles_startup"] + meta["cycles_measured"])
 
 
 CRYSTAL_BOND_CUT = 1.2       # neighbours within 1.2 d
@@ -856,6 +860,7 @@ def crystal_fraction(x: np.ndarray, lx: float) -> float:
     from scipy.spatial import cKDTree
     p = np.array(x[:, :3], dtype=float)
     p[:, :2] %= lx
+    p[:, :2][p[:, :2] >= lx] -= lx            # a tiny negative coordinate wraps to lx itself
     p[:, 2] -= p[:, 2].min()
     tree = cKDTree(p, boxsize=[lx, lx, p[:, 2].max() + 10.0 * D])
     pairs = tree.query_pairs(CRYSTAL_BOND_CUT * D, output_type="ndarray")
@@ -867,11 +872,9 @@ def crystal_fraction(x: np.ndarray, lx: float) -> float:
     y = _y6(np.arccos(np.clip(b[:, 2] / r, -1.0, 1.0)), np.arctan2(b[:, 1], b[:, 0]))   # Y_6m(-b) = Y_6m(b)
     n = len(p)
     q = np.zeros((13, n), dtype=complex)
-    cnt = np.zeros(n)
     for end in (0, 1):
         for m in range(13):
             np.add.at(q[m], pairs[:, end], y[m])
-        np.add.at(cnt, pairs[:, end], 1.0)
     norm = np.sqrt(np.sum(np.abs(q) ** 2, axis=0))
     q = np.where(norm > 0.0, q / np.where(norm > 0.0, norm, 1.0), 0.0)
     dots = np.real(np.sum(q[:, pairs[:, 0]] * np.conj(q[:, pairs[:, 1]]), axis=0))
@@ -880,6 +883,41 @@ def crystal_fraction(x: np.ndarray, lx: float) -> float:
     np.add.at(bonds, pairs[good, 0], 1.0)
     np.add.at(bonds, pairs[good, 1], 1.0)
     return float(np.mean(bonds >= CRYSTAL_MIN_BONDS))
+
+
+BOTTOM_LAYER_TOP = 0.8       # the floor layer: centres less than 0.8 d above the floor (they sit at 0.5 d)
+
+
+def bottom_layer_order(x: np.ndarray, z_rel: np.ndarray, lx: float) -> tuple:
+    """(number of spheres, mean |psi4|, mean |psi6|) of the floor layer (centres less than
+    :data:`BOTTOM_LAYER_TOP` d above the floor): the bond-orientational order of each sphere's
+    in-plane bonds to neighbours within 1.2 d, psi_k = mean over its bonds of exp(i k angle),
+    laterally periodic (spheres without a neighbour left out). A square layer has |psi4| near 1, a
+    hexagonal one |psi6| near 1."""
+    from scipy.spatial import cKDTree
+    m = z_rel < BOTTOM_LAYER_TOP * D
+    p = np.array(x[m, :2], dtype=float) % lx
+    p[p >= lx] -= lx
+    n = len(p)
+    if n < 2:
+        return n, 0.0, 0.0
+    pairs = cKDTree(p, boxsize=lx).query_pairs(CRYSTAL_BOND_CUT * D, output_type="ndarray")
+    if len(pairs) == 0:
+        return n, 0.0, 0.0
+    b = p[pairs[:, 1]] - p[pairs[:, 0]]
+    b -= lx * np.round(b / lx)
+    ang = np.arctan2(b[:, 1], b[:, 0])
+    out = []
+    for k in (4, 6):
+        psi = np.zeros(n, dtype=complex)
+        cnt = np.zeros(n)
+        np.add.at(psi, pairs[:, 0], np.exp(1j * k * ang))
+        np.add.at(psi, pairs[:, 1], np.exp(1j * k * (ang + np.pi)))
+        np.add.at(cnt, pairs[:, 0], 1.0)
+        np.add.at(cnt, pairs[:, 1], 1.0)
+        ok = cnt > 0
+        out.append(float(np.mean(np.abs(psi[ok] / cnt[ok]))))
+    return n, out[0], out[1]
 
 
 def write_structure(out: Path, frames, meta: dict) -> None:
@@ -893,21 +931,25 @@ def write_structure(out: Path, frames, meta: dict) -> None:
         f.write("# at floor phase 0 of every cycle (t = cycle T): com_rel_over_d mass-centre height above the floor "
                 "[d]; phi_1_6d the coarse-grained (sigma = d/2) solid fraction averaged over 1 d to 6 d above the "
                 "floor; crystal_fraction the fraction of crystal-like spheres (q6 bonds, ten Wolde-Frenkel: "
-                "neighbours within 1.2 d, q6.q6 > 0.7, at least 7 bonds)\n")
-        f.write("cycle,com_rel_over_d,phi_1_6d,crystal_fraction\n")
+                "neighbours within 1.2 d, q6.q6 > 0.7, at least 7 bonds); floor_layer_n the spheres with centres "
+                "less than 0.8 d above the floor, floor_layer_psi4 / floor_layer_psi6 their mean in-plane bond order "
+                "|psi4| / |psi6| (neighbours within 1.2 d; square / hexagonal layer near 1)\n")
+        f.write("cycle,com_rel_over_d,phi_1_6d,crystal_fraction,floor_layer_n,floor_layer_psi4,floor_layer_psi6\n")
         for (step, ids, x) in frames:
             c = step * dt / PERIOD
             if abs(c - round(c)) > 1e-6:
                 continue
             zf = amp * math.sin(OMEGA * step * dt)
             z = x[:, 2] - zf
+            nb, psi4, psi6 = bottom_layer_order(x, z, lx)
             f.write(f"{int(round(c))},{z.mean() / D:.4f},{cg_profile(z, zg, lx).mean():.4f},"
-                    f"{crystal_fraction(x, lx):.4f}\n")
+                    f"{crystal_fraction(x, lx):.4f},{nb},{psi4:.4f},{psi6:.4f}\n")
 
 
 def refresh_structure(name: str) -> None:
     """Write results/<name>/structure_per_cycle.csv from work/<name>/bed.dump (no LIGGGHTS run)."""
     wd = WORK / name
+    (RESULTS / name).mkdir(parents=True, exist_ok=True)
     write_structure(RESULTS / name, read_dump(wd / "bed.dump"), json.loads((wd / "meta.json").read_text()))
 
 
@@ -971,7 +1013,7 @@ def postprocess(name: str) -> dict:
             f.write(f"{c},{int(c >= n0)},{per[c]:.6f},{per[c]/PERIOD:.5f},{offfrac[c]:.6f}\n")
     # coarser copy of the force series for committing
     write_floor_force(out, t, zf, fz, weight)
-    write_flight_thresholds(out, t, fz, weight, ncyc)
+    write_flight_thresholds(out, t, fz, weight, n0, ncyc)
 
     # --- positions (every 1/(40 f))
     frames = read_dump(wd / "bed.dump")
@@ -1244,8 +1286,12 @@ def main(argv=None):
     ap.add_argument("--lateral", type=float, default=13.0, help="box side in diameters")
     ap.add_argument("--friction", type=float, default=0.0)
     ap.add_argument("--model", choices=("walton_braun", "hooke"), default="walton_braun")
-    ap.add_argument("--startup", type=int, default=CYCLES_STARTUP)
-    ap.add_argument("--measured", type=int, default=CYCLES_MEASURED)
+    ap.add_argument("--startup", type=int, default=CYCLES_STARTUP,
+                    help=f"start-up cycles before the measured ones (default {CYCLES_STARTUP}; another value adds "
+                         "_c<cycles>s<startup> to the run's name)")
+    ap.add_argument("--measured", type=int, default=CYCLES_MEASURED,
+                    help=f"measured cycles (default {CYCLES_MEASURED}; another value names the run _c<cycles>, "
+                         "cycles = startup + measured, so it never overwrites the main run)")
     ap.add_argument("--restitution", type=float, default=E_REST,
                     help="e for the vibration run (exploratory; the settled bed is the e=0.9 one)")
     ap.add_argument("--floor-restitution", type=float, metavar="E",
@@ -1282,8 +1328,10 @@ def main(argv=None):
                  "--settle-post keep the contact law's e at the floor")
     if not 0 <= a.seed < 2 ** 32:
         ap.error(f"argument --seed: {a.seed!r} is outside the valid range [0, 2^32)")
-    if a.seed != DEFAULT_SEED and a.check:
-        ap.error("argument --seed: only for --settle, --settle-post and --gamma (the contact checks use no packing)")
+    if a.seed != DEFAULT_SEED and (a.check or a.post or a.thresholds or a.structure or a.summary
+                                   or not (a.settle or a.settle_post or a.gamma)):
+        ap.error("argument --seed: only for --settle, --settle-post and --gamma (the other actions name their runs "
+                 "or use no packing)")
     E_REST = a.restitution
     E_FLOOR = a.floor_restitution
     SEED = a.seed

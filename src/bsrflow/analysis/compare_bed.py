@@ -271,7 +271,9 @@ def _case_against(run, setup: BedSetup, ref: Path, tag: str):
             rows = np.atleast_1d(_read_csv(structure))
             case["dem_structure"] = {"cycle": [int(v) for v in rows["cycle"]],
                                      "crystal_fraction": [float(v) for v in rows["crystal_fraction"]],
-                                     "phi_1_6d": [float(v) for v in rows["phi_1_6d"]]}
+                                     "phi_1_6d": [float(v) for v in rows["phi_1_6d"]],
+                                     "floor_layer_psi4": [float(v) for v in rows["floor_layer_psi4"]],
+                                     "floor_layer_psi6": [float(v) for v in rows["floor_layer_psi6"]]}
     return case, traj
 
 
@@ -541,6 +543,10 @@ LONG_REFERENCE = MAIN_RUNS + f"_c{LONG_CYCLES}"
 """The tag of the main bed's longer LIGGGHTS runs (3 + 27 cycles, ``run_liggghts.py --measured
 27``): the same bed, packing and law, followed to cycle 30."""
 LONG_REFERENCE_RUNS = f"LIGGGHTS Walton-Braun, {LONG_CYCLES} cycles; the continuum over {LONG_CYCLES} cycles too"
+OTHER_BOXES = ((2157, 13.5),)
+"""(N, side [d]) of the reference's 30-cycle runs in other boxes at the main bed's spheres per area
+(``run_liggghts.py --n 2157 --lateral 13.5``: a side that is not a whole number of diameters);
+the continuum runs with the same N and side."""
 OTHER_PACKING = MAIN_RUNS + "_seed"
 """The tags' start of the main bed poured with other seeds (``run_liggghts.py --seed S``: another
 random packing of the same spheres, settled alike), ``N2000_L13d_seed<S>``."""
@@ -549,7 +555,7 @@ random packing of the same spheres, settled alike), ``N2000_L13d_seed<S>``."""
 def _long_reference_tags(ref: Path, gamma: float) -> list:
     """[(tag, seed)] of the reference's 30-cycle runs at Γ = ``gamma``: the main packing's first
     (seed None), then those of other packings by seed."""
-    out = [(LONG_REFERENCE, None)] if (_run_dir(ref, gamma, LONG_REFERENCE) / "trajectory.csv").exists() else []
+    out = [(LONG_REFERENCE, None)] if (_run_dir(ref, gamma, LONG_REFERENCE) / "summary.json").exists() else []
     for tag in _other_packing_tags(ref, gamma, suffix=f"_c{LONG_CYCLES}"):
         out.append((tag, int(tag[len(OTHER_PACKING):-len(f"_c{LONG_CYCLES}")])))
     return out
@@ -557,7 +563,8 @@ def _long_reference_tags(ref: Path, gamma: float) -> list:
 
 def _other_packing_tags(ref: Path, gamma: float, suffix: str = "") -> list:
     """The tags of the reference's other-packing runs at Γ = ``gamma`` (the main bed's law and
-    floor, by seed; not the variants of such a packing, whose tags go on after the seed)."""
+    floor, by seed; not the variants of such a packing, whose tags go on after the seed; only
+    finished runs: summary.json is written last)."""
     pre = f"gamma_{gamma:.2f}_"
 
     def seed(name):
@@ -565,7 +572,7 @@ def _other_packing_tags(ref: Path, gamma: float, suffix: str = "") -> list:
         return rest[:len(rest) - len(suffix)] if suffix and rest.endswith(suffix) else (rest if not suffix else "")
 
     found = [p.name[len(pre):] for p in (Path(ref) / "results").glob(f"{pre}{OTHER_PACKING}*")
-             if seed(p.name).isdigit() and (p / "trajectory.csv").exists()]
+             if seed(p.name).isdigit() and (p / "trajectory.csv").exists() and (p / "summary.json").exists()]
     return sorted(found, key=lambda t: int(seed(pre + t)))
 
 MODEL = ("packing stress + granular temperature (bsrflow.physics.granular_bed), horizontally uniform bed "
@@ -604,6 +611,10 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
         tasks += [("case", base.with_(gamma=g, cycles=LONG_CYCLES), tag, long_reference,
                    LONG_REFERENCE_RUNS + ("" if tag == LONG_REFERENCE else f" (packing of seed {seed})"))
                   for g in gammas for tag, seed in _long_reference_tags(ref, g)]
+        tasks += [("case", base.with_(gamma=g, cycles=LONG_CYCLES, n_spheres=n, side=side * base.diameter),
+                   f"N{n}_L{side:g}d_c{LONG_CYCLES}", long_reference,
+                   LONG_REFERENCE_RUNS + f" (a {side:g} d box, N = {n})") for g in gammas for n, side in OTHER_BOXES
+                  if (_run_dir(ref, g, f"N{n}_L{side:g}d_c{LONG_CYCLES}") / "summary.json").exists()]
 
     def finish(task, got):
         kind, setup, _, into, dem = task
@@ -701,12 +712,14 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
         "other_packing_cases": other_packing,
         "long_reference_cases": long_reference,
         "long_reference_note": (f"the main bed followed to cycle {LONG_CYCLES} (LIGGGHTS run_liggghts.py --measured "
-                                f"{LONG_CYCLES - STARTUP_CYCLES}, the same packing and law) against the continuum over "
-                                f"{LONG_CYCLES} cycles: the flights are the last six finished ones (cycles "
-                                f"{LONG_CYCLES - 6}-{LONG_CYCLES - 1}); the mass-centre RMS keeps its window "
-                                "(3T-8T); dem_structure: LIGGGHTS's crystal-like fraction and solid fraction at the "
-                                "start of every cycle (structure_per_cycle.csv)"),
-        "packing_spread": _packing_spread(cases, other_packing, ref, base),
+                                f"{LONG_CYCLES - STARTUP_CYCLES}, the same law; the main packing, other packings "
+                                "(--seed) and other boxes at the same spheres per area, where run) against the "
+                                f"continuum over {LONG_CYCLES} cycles (with the box's N and side): the flights are "
+                                f"the last six finished ones (cycles {LONG_CYCLES - 6}-{LONG_CYCLES - 1}); the "
+                                "mass-centre RMS keeps its window (3T-8T); dem_structure: LIGGGHTS's crystal-like "
+                                "fraction, solid fraction and floor-layer order at the start of every cycle "
+                                "(structure_per_cycle.csv)"),
+        "packing_spread": _packing_spread(cases, other_packing, ref, base, long_reference),
         "packing_spread_note": ("the main bed poured with other seeds of the random insertion (run_liggghts.py "
                                 "--seed S: another packing of the same spheres, settled and vibrated alike) at the "
                                 "Gamma it was run: LIGGGHTS's flight over the packings (sample standard deviation) "
@@ -762,11 +775,13 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
     return out
 
 
-def _packing_spread(cases, other_packing, ref: Path, s: BedSetup) -> list:
+def _packing_spread(cases, other_packing, ref: Path, s: BedSetup, long_reference=()) -> list:
     """Per Γ with other-packing runs: LIGGGHTS's flights over every packing (the main one first),
     their mean and sample standard deviation, the continuum's difference from that mean, and the
     RMS difference [d] of each other packing's mass centre from the main one's over the window of
-    ``mass_centre_rms_over_d``."""
+    ``mass_centre_rms_over_d``; where 30-cycle runs exist, the same over their last six flights
+    (``late``: the packings that have one and the other boxes' runs, against the continuum's
+    30-cycle run of the main box)."""
     main = {c["gamma"]: c for c in cases}
     out = []
     for g in sorted({c["gamma"] for c in other_packing}):
@@ -790,6 +805,14 @@ def _packing_spread(cases, other_packing, ref: Path, s: BedSetup) -> list:
                     "continuum_rel_diff_to_mean": c["flight_time_s"] / mean - 1.0,
                     "continuum_rel_diff_to_main": c["flight_time_rel_diff"],
                     "dem_mass_centre_rms_from_main_over_d": rms})
+        late = [c for c in long_reference if c["gamma"] == g and "dem_flight_time_s" in c]
+        if len(late) >= 2:
+            fl = [c["dem_flight_time_s"] for c in late]
+            out[-1]["late"] = {"packings": [c["dem_tag"] for c in late], "dem_flight_time_s": fl,
+                               "dem_flight_mean_s": float(np.mean(fl)), "dem_flight_std_s": float(np.std(fl, ddof=1)),
+                               "continuum_flight_time_s": late[0]["flight_time_s"],
+                               "continuum_rel_diff_to_mean": late[0]["flight_time_s"] / float(np.mean(fl)) - 1.0,
+                               "cycles": [LONG_CYCLES - 6, LONG_CYCLES - 1]}
     return out
 
 
@@ -921,9 +944,10 @@ def _long_reference_figure(out, folder, plt, ref):
                 "s--", ms=3, color="C1", label="LIGGGHTS Walton–Braun")
         ax.set_ylim(0.0, 45.0)
         ax.set_xlabel("cycle (the floor's period T = 1/f)")
-        ax.set_title(f"Γ = {c['gamma']:g}" + ("" if c["dem_tag"] == LONG_REFERENCE else
-                                               f", packing of seed {c['dem_tag'].split('_seed')[1].split('_')[0]}"),
-                     fontsize=10)
+        tag = c["dem_tag"]
+        ax.set_title(f"Γ = {c['gamma']:g}" + ("" if tag == LONG_REFERENCE else
+                                               f", packing of seed {tag.split('_seed')[1].split('_')[0]}"
+                                               if "_seed" in tag else f", {tag.split('_')[1][1:]} box"), fontsize=10)
         if "dem_structure" in c:
             ax2 = ax.twinx()
             st = c["dem_structure"]
@@ -1290,7 +1314,11 @@ def _main(args) -> int:
         print(f"other packings, Γ = {f['gamma']:g}: LIGGGHTS flight over {len(f['dem_flight_time_s'])} packings "
               f"{1e3 * f['dem_flight_mean_s']:.1f} ± {1e3 * f['dem_flight_std_s']:.1f} ms (sample std), "
               f"continuum {1e3 * f['continuum_flight_time_s']:.1f} ms: {100 * f['continuum_rel_diff_to_mean']:+.1f} % "
-              f"from the mean ({100 * f['continuum_rel_diff_to_main']:+.1f} % from the main packing's)")
+              f"from the mean ({100 * f['continuum_rel_diff_to_main']:+.1f} % from the main packing's)"
+              + ("" if "late" not in f else
+                 f"; cycles {f['late']['cycles'][0]}-{f['late']['cycles'][1]} of {len(f['late']['packings'])} "
+                 f"packings: {1e3 * f['late']['dem_flight_mean_s']:.1f} ± {1e3 * f['late']['dem_flight_std_s']:.1f} ms, "
+                 f"continuum {100 * f['late']['continuum_rel_diff_to_mean']:+.1f} %"))
     psd = out.get("period_doubling_gamma_spring_dashpot")
     if psd is not None:
         print(f"period-doubling Γ against the spring-dashpot bed: continuum {gamma_text(psd['continuum'])}, "
