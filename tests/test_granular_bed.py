@@ -880,7 +880,8 @@ def test_compare_bed_compares_each_main_run_with_the_spring_dashpot_bed_too(tmp_
 
 def test_reference_seed_option_names_its_packing_and_refuses_bad_values(monkeypatch, tmp_path):
     """run_liggghts.py --seed S: another random packing, its folders tagged _seed<S> (the default
-    seed's names unchanged); a negative seed, or one with --check, exits 2 before any work."""
+    seed's names unchanged); a negative seed, or one with --check, exits 2 before any work, as does a refresh of a run
+    that has no work folder."""
     mod = _reference_script()
     assert mod.tag(2000, 13.0) == "N2000_L13d"
     assert mod.run_name(3.0, 2000, 13.0, "walton_braun", 0.0) == "gamma_3.00_N2000_L13d"
@@ -889,7 +890,8 @@ def test_reference_seed_option_names_its_packing_and_refuses_bad_values(monkeypa
     assert mod.run_name(3.0, 2000, 13.0, "walton_braun", 0.0) == "gamma_3.00_N2000_L13d_seed7"
     assert mod.run_name(3.0, 2000, 13.0, "walton_braun", 0.0, 3, 27) == "gamma_3.00_N2000_L13d_seed7_c30"
     for argv in (["--seed", "-1", "--settle"], ["--seed", "3", "--check"], ["--seed", str(2 ** 32), "--settle"],
-                 ["--seed", "3", "--summary"], ["--seed", "3", "--thresholds", "all"], ["--seed", "3"]):
+                 ["--seed", "3", "--summary"], ["--seed", "3", "--thresholds", "all"], ["--seed", "3"],
+                 ["--thresholds", "no_such_run"], ["--structure", "no_such_run"]):
         with pytest.raises(SystemExit) as exc:
             mod.main(argv + ["--root", str(tmp_path / "never")])
         assert exc.value.code == 2

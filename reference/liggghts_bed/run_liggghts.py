@@ -1276,6 +1276,20 @@ def write_params(extra: dict) -> None:
     p.write_text(json.dumps(params, indent=2))
 
 
+def _refresh_runs(ap, option: str, names, needed: str) -> list:
+    """The runs a refresh option names ('all': every finished run, i.e. with its summary.json,
+    that has work/<run>/<needed>); a named run without that file is refused in one line."""
+    if not names:
+        return []
+    if names == ["all"]:
+        return sorted(p.parent.name for p in WORK.glob(f"gamma_*/{needed}")
+                      if (RESULTS / p.parent.name / "summary.json").exists())
+    for name in names:
+        if not (WORK / name / needed).exists():
+            ap.error(f"argument {option}: {name!r} has no work/{name}/{needed} (run it with --gamma)")
+    return list(names)
+
+
 def main(argv=None):
     global E_REST, E_FLOOR, WORK, RESULTS, OUT, SEED
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -1338,6 +1352,9 @@ def main(argv=None):
     if a.root:
         OUT = Path(a.root).resolve()
         WORK, RESULTS = OUT / "work", OUT / "results"
+    # the runs --thresholds and --structure refresh, checked before any work
+    thresholds_runs = _refresh_runs(ap, "--thresholds", a.thresholds, "floor.txt")
+    structure_runs = _refresh_runs(ap, "--structure", a.structure, "bed.dump")
     WORK.mkdir(exist_ok=True)
     RESULTS.mkdir(exist_ok=True)
     if a.check:
@@ -1368,26 +1385,12 @@ def main(argv=None):
     if a.post:
         s = postprocess(a.post)
         print(json.dumps(s, indent=1))
-    if a.thresholds:
-        names = a.thresholds
-        if names == ["all"]:
-            names = sorted(p.parent.name for p in WORK.glob("gamma_*/floor.txt"))
-        for name in names:
-            if not (WORK / name / "floor.txt").exists():
-                ap.error(f"argument --thresholds: {name!r} has no work/{name}/floor.txt (run it with --gamma)")
-        for name in names:
-            refresh_thresholds(name)
-            print(f"results/{name}/flight_vs_threshold.csv")
-    if a.structure:
-        names = a.structure
-        if names == ["all"]:
-            names = sorted(p.parent.name for p in WORK.glob("gamma_*/bed.dump"))
-        for name in names:
-            if not (WORK / name / "bed.dump").exists():
-                ap.error(f"argument --structure: {name!r} has no work/{name}/bed.dump (run it with --gamma)")
-        for name in names:
-            refresh_structure(name)
-            print(f"results/{name}/structure_per_cycle.csv")
+    for name in thresholds_runs:
+        refresh_thresholds(name)
+        print(f"results/{name}/flight_vs_threshold.csv")
+    for name in structure_runs:
+        refresh_structure(name)
+        print(f"results/{name}/structure_per_cycle.csv")
     if a.summary:
         summary()
 
