@@ -876,6 +876,11 @@ def test_compare_bed_compares_each_main_run_with_the_spring_dashpot_bed_too(tmp_
     st = l3["dem_structure"]
     assert st["cycle"] == list(range(31)) and st["crystal_fraction"][0] < 0.05 < 0.35 < st["crystal_fraction"][-1]
     assert main_case["dem_structure"]["crystal_fraction"] == st["crystal_fraction"][:12]
+    # LIGGGHTS's bed has no lateral structure above a laterally shuffled bed's at Γ = 3
+    (lat,) = data["dem_lateral_structure"]
+    rows = main_case["dem_structure"]
+    assert lat["gamma"] == 3.0 and lat["lateral_mode_over_d"] == pytest.approx(np.mean(rows["lateral_mode_over_d"][3:11]))
+    assert lat["ratio"] == lat["lateral_mode_over_d"] / lat["lateral_mode_shuffled_over_d"] and lat["ratio"] < 1.0
 
 
 def test_reference_seed_option_names_its_packing_and_refuses_bad_values(monkeypatch, tmp_path):
@@ -972,3 +977,19 @@ def test_reference_crystal_fraction_tells_fcc_from_random():
     rows = np.genfromtxt(root / "gamma_3.00_N2000_L13d" / "structure_per_cycle.csv", delimiter=",", names=True,
                          skip_header=1)
     assert rows["cycle"][0] == 0 and rows["crystal_fraction"][0] < 0.05
+
+
+def test_reference_lateral_mode_sees_a_wave_and_not_a_uniform_bed():
+    """lateral_mode: a standing wave of amplitude 1 d along x in the sphere heights has A = 1 d (to
+    the sampling noise), far above its shuffled baseline; heights independent of the lateral
+    position give A of the order of the baseline."""
+    mod = _reference_script()
+    d, lx = mod.D, 13 * mod.D
+    rng = np.random.default_rng(5)
+    xy = rng.uniform(0.0, lx, (20000, 2))
+    wave = np.column_stack([xy, 5 * d + d * np.sin(2 * np.pi * xy[:, 0] / lx)])
+    a, a_shuffled = mod.lateral_mode(wave, lx, np.random.default_rng(0))
+    assert a == pytest.approx(d, rel=0.03) and a_shuffled < 0.05 * d
+    flat = np.column_stack([xy, rng.uniform(0.0, 10 * d, len(xy))])
+    a, a_shuffled = mod.lateral_mode(flat, lx, np.random.default_rng(0))
+    assert a < 0.1 * d and 0.2 < a / a_shuffled < 5.0

@@ -885,6 +885,7 @@ def crystal_fraction(x: np.ndarray, lx: float) -> float:
     return float(np.mean(bonds >= CRYSTAL_MIN_BONDS))
 
 
+SEED_LATERAL = 2024          # the shuffles of lateral_mode's baseline
 BOTTOM_LAYER_TOP = 0.8       # the floor layer: centres less than 0.8 d above the floor (they sit at 0.5 d)
 
 
@@ -920,21 +921,48 @@ def bottom_layer_order(x: np.ndarray, z_rel: np.ndarray, lx: float) -> tuple:
     return n, out[0], out[1]
 
 
+LATERAL_MODES = ((1, 0), (0, 1), (1, 1), (1, -1))
+"""The lateral wave vectors (in units of 2π/L) of :func:`lateral_mode`: the box's longest waves."""
+
+
+def lateral_mode(x: np.ndarray, lx: float, rng) -> tuple:
+    """(A, A_shuffled) [m]: the largest amplitude 2 |mean_i (z_i - mean z) exp(i k.x_i)| over the
+    box's longest lateral waves k (:data:`LATERAL_MODES`), of the spheres' heights, and the same
+    with the heights shuffled among the spheres (their lateral positions kept): a bed with no
+    lateral structure (a horizontally uniform one) has A of the order of A_shuffled, a tilted
+    surface, heap or standing wave an A well above it."""
+    z = x[:, 2] - x[:, 2].mean()
+    zs = z[rng.permutation(len(z))]
+    ph = [np.exp(2j * np.pi * (kx * x[:, 0] + ky * x[:, 1]) / lx) for kx, ky in LATERAL_MODES]
+    return (max(2.0 * abs(np.mean(z * e)) for e in ph), max(2.0 * abs(np.mean(zs * e)) for e in ph))
+
+
 def write_structure(out: Path, frames, meta: dict) -> None:
     """structure_per_cycle.csv: at the start of every cycle (floor phase 0, floor at rest height,
     moving up), the mass centre's height above the floor, the solid fraction between 1 d and 6 d
-    above it (coarse-grained as profiles.csv), and the crystal-like fraction of the spheres
-    (:func:`crystal_fraction`)."""
+    above it (coarse-grained as profiles.csv), the crystal-like fraction of the spheres
+    (:func:`crystal_fraction`) and the floor layer's order (:func:`bottom_layer_order`); and the
+    lateral structure over the cycle's frames (:func:`lateral_mode`, mean over the frames from that
+    start to the next cycle's; the shuffles seeded, so the file is reproducible)."""
     dt, amp, lx = meta["dt_s"], meta["amplitude_m"], meta["lx_m"]
     zg = np.arange(1.0 * D, 6.0 * D + 1e-12, D / 10)
+    rng = np.random.default_rng(SEED_LATERAL)
+    lateral = {}
+    for (step, ids, x) in frames:
+        c = int(math.floor(step * dt / PERIOD + 1e-9))
+        lateral.setdefault(c, []).append(lateral_mode(x, lx, rng))
     with open(out / "structure_per_cycle.csv", "w") as f:
         f.write("# at floor phase 0 of every cycle (t = cycle T): com_rel_over_d mass-centre height above the floor "
                 "[d]; phi_1_6d the coarse-grained (sigma = d/2) solid fraction averaged over 1 d to 6 d above the "
                 "floor; crystal_fraction the fraction of crystal-like spheres (q6 bonds, ten Wolde-Frenkel: "
                 "neighbours within 1.2 d, q6.q6 > 0.7, at least 7 bonds); floor_layer_n the spheres with centres "
                 "less than 0.8 d above the floor, floor_layer_psi4 / floor_layer_psi6 their mean in-plane bond order "
-                "|psi4| / |psi6| (neighbours within 1.2 d; square / hexagonal layer near 1)\n")
-        f.write("cycle,com_rel_over_d,phi_1_6d,crystal_fraction,floor_layer_n,floor_layer_psi4,floor_layer_psi6\n")
+                "|psi4| / |psi6| (neighbours within 1.2 d; square / hexagonal layer near 1); over the cycle's "
+                "frames (from this start to the next), lateral_mode_over_d the mean largest amplitude of the sphere "
+                "heights' longest lateral waves [d] and lateral_mode_shuffled_over_d the same with the heights "
+                "shuffled among the spheres (no lateral structure: of the same order)\n")
+        f.write("cycle,com_rel_over_d,phi_1_6d,crystal_fraction,floor_layer_n,floor_layer_psi4,floor_layer_psi6,"
+                "lateral_mode_over_d,lateral_mode_shuffled_over_d\n")
         for (step, ids, x) in frames:
             c = step * dt / PERIOD
             if abs(c - round(c)) > 1e-6:
@@ -942,8 +970,9 @@ def write_structure(out: Path, frames, meta: dict) -> None:
             zf = amp * math.sin(OMEGA * step * dt)
             z = x[:, 2] - zf
             nb, psi4, psi6 = bottom_layer_order(x, z, lx)
+            lat = np.mean(lateral[int(round(c))], axis=0) / D
             f.write(f"{int(round(c))},{z.mean() / D:.4f},{cg_profile(z, zg, lx).mean():.4f},"
-                    f"{crystal_fraction(x, lx):.4f},{nb},{psi4:.4f},{psi6:.4f}\n")
+                    f"{crystal_fraction(x, lx):.4f},{nb},{psi4:.4f},{psi6:.4f},{lat[0]:.4f},{lat[1]:.4f}\n")
 
 
 def refresh_structure(name: str) -> None:

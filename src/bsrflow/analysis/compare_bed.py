@@ -273,7 +273,10 @@ def _case_against(run, setup: BedSetup, ref: Path, tag: str):
                                      "crystal_fraction": [float(v) for v in rows["crystal_fraction"]],
                                      "phi_1_6d": [float(v) for v in rows["phi_1_6d"]],
                                      "floor_layer_psi4": [float(v) for v in rows["floor_layer_psi4"]],
-                                     "floor_layer_psi6": [float(v) for v in rows["floor_layer_psi6"]]}
+                                     "floor_layer_psi6": [float(v) for v in rows["floor_layer_psi6"]],
+                                     "lateral_mode_over_d": [float(v) for v in rows["lateral_mode_over_d"]],
+                                     "lateral_mode_shuffled_over_d": [float(v) for v in
+                                                                      rows["lateral_mode_shuffled_over_d"]]}
     return case, traj
 
 
@@ -720,6 +723,12 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                                 "fraction, solid fraction and floor-layer order at the start of every cycle "
                                 "(structure_per_cycle.csv)"),
         "packing_spread": _packing_spread(cases, other_packing, ref, base, long_reference),
+        "dem_lateral_structure": _lateral_structure(cases),
+        "dem_lateral_structure_note": ("is LIGGGHTS's bed horizontally uniform, as the continuum assumes? Per main "
+                                       "case, over the measured cycles (3-10): the mean amplitude of the sphere "
+                                       "heights' longest lateral waves in the 13 d box and the same with the heights "
+                                       "shuffled among the spheres (structure_per_cycle.csv); a ratio below 1: no "
+                                       "lateral structure above the shuffled bed's"),
         "packing_spread_note": ("the main bed poured with other seeds of the random insertion (run_liggghts.py "
                                 "--seed S: another packing of the same spheres, settled and vibrated alike) at the "
                                 "Gamma it was run: LIGGGHTS's flight over the packings (sample standard deviation) "
@@ -767,11 +776,26 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
         for key in ("period_doubling_gamma_friction_mu0.5", "spring_dashpot_cases", "spring_dashpot_note",
                     "period_doubling_gamma_spring_dashpot", "large_box_cases", "large_box_note",
                     "elastic_floor_cases", "floor_contact_effect", "floor_contact_note", "other_packing_cases",
-                    "long_reference_cases", "long_reference_note",
+                    "long_reference_cases", "long_reference_note", "dem_lateral_structure", "dem_lateral_structure_note",
                     "packing_spread", "packing_spread_note"):
             del out[key]
     if figures:
         _figures(out, runs, base, Path(figures), ref)
+    return out
+
+
+def _lateral_structure(cases) -> list:
+    """Per main case with LIGGGHTS's structure table: the means over the measured cycles (3 to 10)
+    of the lateral-wave amplitude and of its shuffled baseline [d], and their ratio."""
+    out = []
+    for c in cases:
+        st = c.get("dem_structure")
+        if st is None:
+            continue
+        keep = [k for k, cyc in enumerate(st["cycle"]) if STARTUP_CYCLES <= cyc < c["dem_structure"]["cycle"][-1]]
+        a = float(np.mean([st["lateral_mode_over_d"][k] for k in keep]))
+        b = float(np.mean([st["lateral_mode_shuffled_over_d"][k] for k in keep]))
+        out.append({"gamma": c["gamma"], "lateral_mode_over_d": a, "lateral_mode_shuffled_over_d": b, "ratio": a / b})
     return out
 
 
