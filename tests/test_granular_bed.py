@@ -849,9 +849,12 @@ def test_compare_bed_compares_each_main_run_with_the_spring_dashpot_bed_too(tmp_
     assert spread["continuum_rel_diff_to_mean"] == pytest.approx(main_case["flight_time_s"] / np.mean(own) - 1, rel=1e-12)
     assert spread["continuum_rel_diff_to_main"] == main_case["flight_time_rel_diff"]
     assert len(spread["dem_mass_centre_rms_from_main_over_d"]) == len(op)
-    late = spread["late"]                          # the 30-cycle runs' last six flights, over the packings run so
+    late = spread["late"]                          # the 30-cycle runs' last six flights: packings and boxes
     lr3 = [c for c in data["long_reference_cases"] if c["gamma"] == 3.0]
-    assert late["dem_flight_time_s"] == [c["dem_flight_time_s"] for c in lr3] and len(lr3) >= 2
+    assert late["runs"] == [c["dem_tag"] for c in lr3] and late["runs"][0] == "N2000_L13d_c30"
+    assert "N2157_L13.5d_c30" in late["runs"] and len(late["runs"]) == 2 + len(
+        [k for k in seeds if (root / f"gamma_3.00_N2000_L13d_seed{k}_c30").exists()])
+    assert late["dem_flight_time_s"] == [c["dem_flight_time_s"] for c in lr3]
     assert late["continuum_rel_diff_to_mean"] == pytest.approx(
         lr3[0]["flight_time_s"] / np.mean(late["dem_flight_time_s"]) - 1, rel=1e-12)
     # the 30-cycle runs: the continuum over 30 cycles too, its last six flights those of cycles 24-29
@@ -865,6 +868,8 @@ def test_compare_bed_compares_each_main_run_with_the_spring_dashpot_bed_too(tmp_
     # and the 13.5 d box (not a whole number of diameters), with the continuum at its N and side
     box = next(c for c in lr if c["dem_tag"] == "N2157_L13.5d_c30")
     assert box["gamma"] == 3.0 and "13.5 d box" in box["dem"] and math.isfinite(box["mass_centre_rms_over_d"])
+    assert (box["n_spheres"], box["side_over_d"]) == (2157, pytest.approx(13.5))      # the continuum at the box's N, side
+    assert (l3["n_spheres"], l3["side_over_d"]) == (2000, pytest.approx(13.0))
     # (the same spheres per area to 1e-4: the horizontally uniform continuum flies alike)
     assert box["flight_time_s"] == pytest.approx(l3["flight_time_s"], rel=0.01)
     assert len(l3["flight_time_per_cycle_s"]) == 30
@@ -876,11 +881,13 @@ def test_compare_bed_compares_each_main_run_with_the_spring_dashpot_bed_too(tmp_
     st = l3["dem_structure"]
     assert st["cycle"] == list(range(31)) and st["crystal_fraction"][0] < 0.05 < 0.35 < st["crystal_fraction"][-1]
     assert main_case["dem_structure"]["crystal_fraction"] == st["crystal_fraction"][:12]
-    # LIGGGHTS's bed has no lateral structure above a laterally shuffled bed's at Γ = 3
+    # LIGGGHTS's lateral-wave amplitude over cycles 3-10 (rows 3 to 10; row 11 is the last frame alone):
+    # at Γ = 3 below the 0.22 d bound the docs give over Γ = 1.5-8
     (lat,) = data["dem_lateral_structure"]
     rows = main_case["dem_structure"]
     assert lat["gamma"] == 3.0 and lat["lateral_mode_over_d"] == pytest.approx(np.mean(rows["lateral_mode_over_d"][3:11]))
-    assert lat["ratio"] == lat["lateral_mode_over_d"] / lat["lateral_mode_shuffled_over_d"] and lat["ratio"] < 1.0
+    assert lat["ratio"] == lat["lateral_mode_over_d"] / lat["lateral_mode_shuffled_over_d"]
+    assert 0.0 < lat["lateral_mode_over_d"] < 0.22
 
 
 def test_reference_seed_option_names_its_packing_and_refuses_bad_values(monkeypatch, tmp_path):
@@ -993,3 +1000,44 @@ def test_reference_lateral_mode_sees_a_wave_and_not_a_uniform_bed():
     flat = np.column_stack([xy, rng.uniform(0.0, 10 * d, len(xy))])
     a, a_shuffled = mod.lateral_mode(flat, lx, np.random.default_rng(0))
     assert a < 0.1 * d and 0.2 < a / a_shuffled < 5.0
+
+
+def test_reference_structure_table_groups_each_cycles_frames(tmp_path):
+    """write_structure: one row per cycle start; the lateral measure is the mean over that cycle's
+    frames (the last row: its single frame), so a wave present only in cycle 1 shows in row 1 alone."""
+    mod = _reference_script()
+    d, lx = mod.D, 13 * mod.D
+    meta = {"dt_s": mod.PERIOD / 40, "amplitude_m": 0.0, "lx_m": lx}      # one frame per step, 40 per cycle
+    rng = np.random.default_rng(2)
+    xy = rng.uniform(0.0, lx, (3000, 2))
+    flat = np.column_stack([xy, rng.uniform(0.5 * d, 8 * d, len(xy))])
+    wave = flat.copy()
+    wave[:, 2] += 2 * d * np.sin(2 * np.pi * xy[:, 0] / lx)
+    frames = [(k, np.arange(len(xy)), wave if 40 <= k < 80 else flat) for k in range(121)]
+    mod.write_structure(tmp_path, frames, meta)
+    rows = np.genfromtxt(tmp_path / "structure_per_cycle.csv", delimiter=",", names=True, skip_header=1)
+    assert list(rows["cycle"]) == [0, 1, 2, 3]
+    a = rows["lateral_mode_over_d"]
+    assert a[1] == pytest.approx(2.0, rel=0.05) and max(a[0], a[2], a[3]) < 0.2
+
+
+def test_reference_refresh_all_takes_finished_runs_only(tmp_path, monkeypatch):
+    """--thresholds / --structure all: the runs with the work file and a summary.json (a run still
+    going has none yet); a named run without its work file is refused in one line."""
+    import argparse
+    mod = _reference_script()
+    monkeypatch.setattr(mod, "WORK", tmp_path / "work")
+    monkeypatch.setattr(mod, "RESULTS", tmp_path / "results")
+    for name, done in (("gamma_3.00_N2000_L13d", True), ("gamma_3.00_N2000_L13d_c30", False)):
+        (tmp_path / "work" / name).mkdir(parents=True)
+        (tmp_path / "work" / name / "floor.txt").write_text("")
+        (tmp_path / "results" / name).mkdir(parents=True)
+        if done:
+            (tmp_path / "results" / name / "summary.json").write_text("{}")
+    ap = argparse.ArgumentParser()
+    assert mod._refresh_runs(ap, "--thresholds", ["all"], "floor.txt") == ["gamma_3.00_N2000_L13d"]
+    assert mod._refresh_runs(ap, "--structure", ["all"], "bed.dump") == []
+    assert mod._refresh_runs(ap, "--thresholds", None, "floor.txt") == []
+    with pytest.raises(SystemExit) as exc:
+        mod._refresh_runs(ap, "--structure", ["gamma_3.00_N2000_L13d"], "bed.dump")
+    assert exc.value.code == 2

@@ -930,7 +930,11 @@ def lateral_mode(x: np.ndarray, lx: float, rng) -> tuple:
     box's longest lateral waves k (:data:`LATERAL_MODES`), of the spheres' heights, and the same
     with the heights shuffled among the spheres (their lateral positions kept): a bed with no
     lateral structure (a horizontally uniform one) has A of the order of A_shuffled, a tilted
-    surface, heap or standing wave an A well above it."""
+    surface, heap or standing wave an A well above it.  The shuffled layout is a random one, noisier
+    than a packed flat bed (a review's synthetic check: a flat packed bed gives A/A_shuffled about
+    0.16, its surface raised and lowered by 0.4 d about 1.1), so A itself, in d, is the bound to read:
+    a wave of the whole bed of peak-to-peak height h has A of about h/2, a heap of the surface alone
+    (the displacement growing from 0 at the floor) about h/4."""
     z = x[:, 2] - x[:, 2].mean()
     zs = z[rng.permutation(len(z))]
     ph = [np.exp(2j * np.pi * (kx * x[:, 0] + ky * x[:, 1]) / lx) for kx, ky in LATERAL_MODES]
@@ -958,9 +962,10 @@ def write_structure(out: Path, frames, meta: dict) -> None:
                 "neighbours within 1.2 d, q6.q6 > 0.7, at least 7 bonds); floor_layer_n the spheres with centres "
                 "less than 0.8 d above the floor, floor_layer_psi4 / floor_layer_psi6 their mean in-plane bond order "
                 "|psi4| / |psi6| (neighbours within 1.2 d; square / hexagonal layer near 1); over the cycle's "
-                "frames (from this start to the next), lateral_mode_over_d the mean largest amplitude of the sphere "
-                "heights' longest lateral waves [d] and lateral_mode_shuffled_over_d the same with the heights "
-                "shuffled among the spheres (no lateral structure: of the same order)\n")
+                "frames (from this start to the next; the last row: its single frame), lateral_mode_over_d the mean "
+                "largest amplitude of the sphere heights' longest lateral waves [d] and lateral_mode_shuffled_over_d "
+                "the same with the heights shuffled among the spheres (the amplitude of a random lateral layout, "
+                "above a packed flat bed's own)\n")
         f.write("cycle,com_rel_over_d,phi_1_6d,crystal_fraction,floor_layer_n,floor_layer_psi4,floor_layer_psi6,"
                 "lateral_mode_over_d,lateral_mode_shuffled_over_d\n")
         for (step, ids, x) in frames:
@@ -1345,11 +1350,11 @@ def main(argv=None):
                     help=f"seed of the random insertion before settling (default {DEFAULT_SEED}); another seed "
                          "pours another packing of the same bed: its settle and vibration folders end in _seed<S>")
     ap.add_argument("--thresholds", metavar="RUN", nargs="+",
-                    help="write results/RUN/flight_vs_threshold.csv from work/RUN/floor.txt ('all': every run "
-                         "with one), without running LIGGGHTS")
+                    help="write results/RUN/flight_vs_threshold.csv from work/RUN/floor.txt ('all': every finished "
+                         "run, with its summary.json, that has one), without running LIGGGHTS")
     ap.add_argument("--structure", metavar="RUN", nargs="+",
-                    help="write results/RUN/structure_per_cycle.csv from work/RUN/bed.dump ('all': every run with "
-                         "one), without running LIGGGHTS")
+                    help="write results/RUN/structure_per_cycle.csv from work/RUN/bed.dump ('all': every finished "
+                         "run, with its summary.json, that has one), without running LIGGGHTS")
     ap.add_argument("--summary", action="store_true")
     ap.add_argument("--settle-post", action="store_true", help="redo the packing statistics")
     ap.add_argument("--root", metavar="DIR", help="write work/, results/ and the JSON files under DIR instead of "

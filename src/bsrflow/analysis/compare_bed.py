@@ -633,6 +633,7 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
             case["dem"] = dem
         if into is long_reference:
             case["dem_tag"] = task[2]
+            case["n_spheres"], case["side_over_d"] = setup.n_spheres, setup.side / setup.diameter
         into.append(case)
         _log_case(case, dem)
         if into is cases:
@@ -724,16 +725,21 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                                 "(structure_per_cycle.csv)"),
         "packing_spread": _packing_spread(cases, other_packing, ref, base, long_reference),
         "dem_lateral_structure": _lateral_structure(cases),
-        "dem_lateral_structure_note": ("is LIGGGHTS's bed horizontally uniform, as the continuum assumes? Per main "
-                                       "case, over the measured cycles (3-10): the mean amplitude of the sphere "
-                                       "heights' longest lateral waves in the 13 d box and the same with the heights "
-                                       "shuffled among the spheres (structure_per_cycle.csv); a ratio below 1: no "
-                                       "lateral structure above the shuffled bed's"),
+        "dem_lateral_structure_note": ("how far from horizontally uniform (the continuum's assumption) is LIGGGHTS's "
+                                       "bed? Per main case, over the measured cycles (3-10): the mean amplitude [d] "
+                                       "of the sphere heights' longest lateral waves in the 13 d box (a wave of the "
+                                       "whole bed of peak-to-peak height h gives about h/2, a heap of the surface "
+                                       "alone about h/4), beside the same with the heights "
+                                       "shuffled among the spheres (a random layout's, noisier than a packed flat "
+                                       "bed: not a noise floor, so the ratio is no test)"),
         "packing_spread_note": ("the main bed poured with other seeds of the random insertion (run_liggghts.py "
                                 "--seed S: another packing of the same spheres, settled and vibrated alike) at the "
                                 "Gamma it was run: LIGGGHTS's flight over the packings (sample standard deviation) "
                                 "and the continuum's difference from their mean, beside the criterion's difference "
-                                "from the main packing; the spread is the reference value's own uncertainty"),
+                                "from the main packing; the spread is the reference value's own uncertainty. late: "
+                                "the same over the last six flights of every 30-cycle run at that Gamma (the "
+                                "packings' and the other boxes' runs, named in runs), against the continuum's "
+                                "30-cycle run of the main box"),
         "floor_contact_effect": _floor_contact_effect(cases, elastic_floor, ref, base),
         "floor_contact_note": ("the sphere-floor contacts' restitution alone changed, 0.9 -> 1 (elastic), in LIGGGHTS "
                                "(Walton-Braun, the main bed's settled packing) and in the continuum (floor_restitution: "
@@ -792,7 +798,9 @@ def _lateral_structure(cases) -> list:
         st = c.get("dem_structure")
         if st is None:
             continue
-        keep = [k for k, cyc in enumerate(st["cycle"]) if STARTUP_CYCLES <= cyc < c["dem_structure"]["cycle"][-1]]
+        keep = [k for k, cyc in enumerate(st["cycle"]) if STARTUP_CYCLES <= cyc < st["cycle"][-1]]
+        if not keep:
+            continue
         a = float(np.mean([st["lateral_mode_over_d"][k] for k in keep]))
         b = float(np.mean([st["lateral_mode_shuffled_over_d"][k] for k in keep]))
         out.append({"gamma": c["gamma"], "lateral_mode_over_d": a, "lateral_mode_shuffled_over_d": b, "ratio": a / b})
@@ -832,7 +840,7 @@ def _packing_spread(cases, other_packing, ref: Path, s: BedSetup, long_reference
         late = [c for c in long_reference if c["gamma"] == g and "dem_flight_time_s" in c]
         if len(late) >= 2:
             fl = [c["dem_flight_time_s"] for c in late]
-            out[-1]["late"] = {"packings": [c["dem_tag"] for c in late], "dem_flight_time_s": fl,
+            out[-1]["late"] = {"runs": [c["dem_tag"] for c in late], "dem_flight_time_s": fl,
                                "dem_flight_mean_s": float(np.mean(fl)), "dem_flight_std_s": float(np.std(fl, ddof=1)),
                                "continuum_flight_time_s": late[0]["flight_time_s"],
                                "continuum_rel_diff_to_mean": late[0]["flight_time_s"] / float(np.mean(fl)) - 1.0,
@@ -1340,8 +1348,8 @@ def _main(args) -> int:
               f"continuum {1e3 * f['continuum_flight_time_s']:.1f} ms: {100 * f['continuum_rel_diff_to_mean']:+.1f} % "
               f"from the mean ({100 * f['continuum_rel_diff_to_main']:+.1f} % from the main packing's)"
               + ("" if "late" not in f else
-                 f"; cycles {f['late']['cycles'][0]}-{f['late']['cycles'][1]} of {len(f['late']['packings'])} "
-                 f"packings: {1e3 * f['late']['dem_flight_mean_s']:.1f} ± {1e3 * f['late']['dem_flight_std_s']:.1f} ms, "
+                 f"; cycles {f['late']['cycles'][0]}-{f['late']['cycles'][1]} of {len(f['late']['runs'])} "
+                 f"30-cycle runs (packings and boxes): {1e3 * f['late']['dem_flight_mean_s']:.1f} ± {1e3 * f['late']['dem_flight_std_s']:.1f} ms, "
                  f"continuum {100 * f['late']['continuum_rel_diff_to_mean']:+.1f} %"))
     psd = out.get("period_doubling_gamma_spring_dashpot")
     if psd is not None:
