@@ -962,11 +962,16 @@ def _flight_threshold_figure(out, folder, plt):
 def _long_reference_figure(out, folder, plt, ref):
     """bed_long_runs.png: the flight per cycle over the long runs (both models) and LIGGGHTS's
     crystal-like fraction, one panel per Γ; nothing written without long runs."""
-    cs = out.get("long_reference_cases") or []
+    cs = sorted(out.get("long_reference_cases") or [],
+                key=lambda c: (c["gamma"], c["dem_tag"] != LONG_REFERENCE, "_seed" not in c["dem_tag"], c["dem_tag"]))
     if not cs:
         return
-    fig, axes = plt.subplots(1, len(cs), figsize=(max(7.0, 4.2 * len(cs)), 4.0), squeeze=False)
-    for ax, c in zip(axes[0], cs):
+    ncol = min(len(cs), 5)
+    nrow = -(-len(cs) // ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(max(7.0, 3.6 * ncol), 3.4 * nrow + 0.6), squeeze=False)
+    for ax in axes.flat[len(cs):]:
+        ax.set_visible(False)
+    for k, (ax, c) in enumerate(zip(axes.flat, cs)):
         n = len(c["flight_time_per_cycle_s"])
         ax.plot(range(n), [1e3 * v if v is not None else np.nan for v in c["flight_time_per_cycle_s"]], "o-", ms=3,
                 label="continuum")
@@ -975,7 +980,10 @@ def _long_reference_figure(out, folder, plt, ref):
         ax.plot(range(STARTUP_CYCLES, STARTUP_CYCLES + len(dem)), [1e3 * v if v is not None else np.nan for v in dem],
                 "s--", ms=3, color="C1", label="LIGGGHTS Walton–Braun")
         ax.set_ylim(0.0, 45.0)
-        ax.set_xlabel("cycle (the floor's period T = 1/f)")
+        if k // ncol == nrow - 1 or k + ncol >= len(cs):
+            ax.set_xlabel("cycle (the floor's period T = 1/f)")
+        if k % ncol == 0:
+            ax.set_ylabel("flight per cycle [ms] (0.1 M g)")
         tag = c["dem_tag"]
         ax.set_title(f"Γ = {c['gamma']:g}" + ("" if tag == LONG_REFERENCE else
                                                f", packing of seed {tag.split('_seed')[1].split('_')[0]}"
@@ -985,11 +993,10 @@ def _long_reference_figure(out, folder, plt, ref):
             st = c["dem_structure"]
             ax2.plot(st["cycle"], st["crystal_fraction"], ":", color="C2", label="LIGGGHTS crystal-like fraction")
             ax2.set_ylim(0.0, 1.0)
-            if ax is axes[0][-1]:
-                ax2.set_ylabel("crystal-like fraction of the spheres (q6)", color="C2")
-            if ax is axes[0][0]:
+            if k % ncol == ncol - 1 or k == len(cs) - 1:
+                ax2.set_ylabel("crystal-like fraction (q6)", color="C2")
+            if k == 0:
                 ax2.legend(loc="lower right", fontsize=8)
-    axes[0][0].set_ylabel("flight time per cycle [ms] (0.1 M g)")
     axes[0][0].legend(loc="upper right", fontsize=8)
     _save_figure(fig, f"The bed over {LONG_CYCLES} cycles: flights and LIGGGHTS's crystallisation",
                  folder / "bed_long_runs.png", plt)
