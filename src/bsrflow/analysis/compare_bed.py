@@ -550,6 +550,10 @@ OTHER_BOXES = ((2157, 13.5),)
 """(N, side [d]) of the reference's 30-cycle runs in other boxes at the main bed's spheres per area
 (``run_liggghts.py --n 2157 --lateral 13.5``: a side that is not a whole number of diameters);
 the continuum runs with the same N and side."""
+LONG_VARIANTS = (("N2000_L13d_hooke", "LIGGGHTS spring-dashpot, frictionless", {}),
+                 ("N2000_L13d_ew1", "LIGGGHTS Walton-Braun, elastic sphere-floor contacts; the continuum with "
+                                    "floor_restitution 1", {"floor_restitution": 1.0}))
+"""(tag, label, the continuum's setup changes) of the other beds' 30-cycle runs, where run."""
 OTHER_PACKING = MAIN_RUNS + "_seed"
 """The tags' start of the main bed poured with other seeds (``run_liggghts.py --seed S``: another
 random packing of the same spheres, settled alike), ``N2000_L13d_seed<S>``."""
@@ -618,6 +622,12 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                    f"N{n}_L{side:g}d_c{LONG_CYCLES}", long_reference,
                    LONG_REFERENCE_RUNS + f" (a {side:g} d box, N = {n})") for g in gammas for n, side in OTHER_BOXES
                   if (_run_dir(ref, g, f"N{n}_L{side:g}d_c{LONG_CYCLES}") / "summary.json").exists()]
+        # the other laws' and floors' 30-cycle runs, against the continuum they are compared with
+        # at 11 cycles (not in packing_spread.late, which is the main law's)
+        tasks += [("case", base.with_(gamma=g, cycles=LONG_CYCLES, **kw), f"{tag}_c{LONG_CYCLES}", long_reference,
+                   f"{label}, {LONG_CYCLES} cycles; the continuum over {LONG_CYCLES} cycles too")
+                  for g in gammas for tag, label, kw in LONG_VARIANTS
+                  if (_run_dir(ref, g, f"{tag}_c{LONG_CYCLES}") / "summary.json").exists()]
 
     def finish(task, got):
         kind, setup, _, into, dem = task
@@ -837,7 +847,9 @@ def _packing_spread(cases, other_packing, ref: Path, s: BedSetup, long_reference
                     "continuum_rel_diff_to_mean": c["flight_time_s"] / mean - 1.0,
                     "continuum_rel_diff_to_main": c["flight_time_rel_diff"],
                     "dem_mass_centre_rms_from_main_over_d": rms})
-        late = [c for c in long_reference if c["gamma"] == g and "dem_flight_time_s" in c]
+        late = [c for c in long_reference if c["gamma"] == g and "dem_flight_time_s" in c
+                and (c["dem_tag"] == LONG_REFERENCE or c["dem_tag"].startswith(OTHER_PACKING)
+                     or any(c["dem_tag"] == f"N{n}_L{side:g}d_c{LONG_CYCLES}" for n, side in OTHER_BOXES))]
         if len(late) >= 2:
             fl = [c["dem_flight_time_s"] for c in late]
             out[-1]["late"] = {"runs": [c["dem_tag"] for c in late], "dem_flight_time_s": fl,
@@ -985,9 +997,10 @@ def _long_reference_figure(out, folder, plt, ref):
         if k % ncol == 0:
             ax.set_ylabel("flight per cycle [ms] (0.1 M g)")
         tag = c["dem_tag"]
-        ax.set_title(f"Γ = {c['gamma']:g}" + ("" if tag == LONG_REFERENCE else
-                                               f", packing of seed {tag.split('_seed')[1].split('_')[0]}"
-                                               if "_seed" in tag else f", {tag.split('_')[1][1:]} box"), fontsize=10)
+        variant = ("" if tag == LONG_REFERENCE else f", packing of seed {tag.split('_seed')[1].split('_')[0]}"
+                   if "_seed" in tag else ", spring-dashpot" if "_hooke" in tag else ", floor elastic"
+                   if "_ew1" in tag else f", {tag.split('_')[1][1:]} box")
+        ax.set_title(f"Γ = {c['gamma']:g}{variant}", fontsize=10)
         if "dem_structure" in c:
             ax2 = ax.twinx()
             st = c["dem_structure"]
