@@ -663,8 +663,11 @@ def test_compare_bed_in_workers_ends_on_sigterm_with_one_line(tmp_path):
     import sys
     import time
     out = tmp_path / "bed.json"
+    # 800 cells: each run about 16x the default's (4x the cells, 4x the steps), so that the runs
+    # are still going 3 s in (with the default 200 cells and the vectorised step of 2026-12-04 the
+    # three runs finished before the signal and this test failed)
     cmd = [sys.executable, "-m", "bsrflow", "compare-bed", "--gammas", "2", "3", "4.5", "--no-extra", "--workers",
-           "2", "--json", str(out)]
+           "2", "--cells", "800", "--json", str(out)]
     p = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     first = p.stdout.readline()
     assert first.startswith("bsrflow compare-bed: 3 Γ"), first
