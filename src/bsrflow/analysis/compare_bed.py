@@ -27,8 +27,10 @@ compared with the continuum whose floor loss is elastic too (``floor_restitution
 ``floor_contact_effect`` gives, per Γ, what the floor's restitution alone changes in either.
 The same continuum runs against the main bed poured with other seeds (``other_packing_cases``,
 ``packing_spread``: the reference value's own spread over packings), where it was, and continuum
-runs of 30 cycles against the main bed's 30-cycle LIGGGHTS runs (``long_reference_cases``, where
-they were run; LIGGGHTS's crystal-like fraction per cycle in ``dem_structure``).  The
+runs of 30 cycles against the 30-cycle LIGGGHTS runs (``long_reference_cases``: the main bed at
+every Γ, other packings, another box and the other two Γ = 3 beds, where they were run;
+LIGGGHTS's crystal-like fraction, floor-layer order and lateral waves per cycle in
+``dem_structure``; ``dem_lateral_structure``: the lateral waves' amplitude per main case).  The
 frictional runs twice: against the smooth continuum at Γ = 3 (the effect of friction, reported,
 not tuned away) and against the continuum with friction μ = 0.5, which
 enters only as the collisional losses' effective restitution e − (3/2)μ exp(−3μ) (Chialvo and
