@@ -1053,3 +1053,21 @@ def test_reference_refresh_all_takes_finished_runs_only(tmp_path, monkeypatch):
     with pytest.raises(SystemExit) as exc:
         mod._refresh_runs(ap, "--structure", ["gamma_3.00_N2000_L13d"], "bed.dump")
     assert exc.value.code == 2
+
+
+def test_packing_spread_late_takes_its_own_gammas_runs_only():
+    """packing_spread's late spread at a Γ: only that Γ's 30-cycle runs of the main law (a run of
+    the same tag at another Γ, or a run outside spread_runs, is left out)."""
+    from bsrflow.analysis.compare_bed import REFERENCE, _packing_spread
+    s = BedSetup()
+    cases = [{"gamma": 3.0, "dem_flight_time_s": 0.027, "flight_time_s": 0.025, "flight_time_rel_diff": -0.07}]
+    other = [{"gamma": 3.0, "dem_flight_time_s": 0.026, "dem_tag": "N2000_L13d_seed1", "dem": "seed 1"}]
+    late_runs = [{"gamma": 2.0, "dem_tag": "N2000_L13d_c30", "dem_flight_time_s": 0.020, "flight_time_s": 0.019},
+                 {"gamma": 3.0, "dem_tag": "N2000_L13d_c30", "dem_flight_time_s": 0.024, "flight_time_s": 0.025},
+                 {"gamma": 3.0, "dem_tag": "N2000_L13d_seed1_c30", "dem_flight_time_s": 0.026, "flight_time_s": 0.025},
+                 {"gamma": 3.0, "dem_tag": "N2000_L13d_hooke_c30", "dem_flight_time_s": 0.030, "flight_time_s": 0.025}]
+    spread_runs = {(2.0, "N2000_L13d_c30"), (3.0, "N2000_L13d_c30"), (3.0, "N2000_L13d_seed1_c30")}
+    (out,) = _packing_spread(cases, other, REFERENCE, s, late_runs, spread_runs)
+    assert out["late"]["runs"] == ["N2000_L13d_c30", "N2000_L13d_seed1_c30"]
+    assert out["late"]["dem_flight_time_s"] == [0.024, 0.026]
+    assert out["late"]["continuum_rel_diff_to_mean"] == pytest.approx(0.025 / 0.025 - 1.0)

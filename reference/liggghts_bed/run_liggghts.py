@@ -798,16 +798,22 @@ def write_floor_force(out: Path, t, zf, fz, weight: float) -> None:
             f.write(f"{t[i]:.6f},{zf[i]:.4e},{fz[i]:.4e}\n")
 
 
-def last_six_flights(flights, n0: int, ncyc: int) -> np.ndarray:
-    """The last six finished flights [s] of the measured cycles' flight times (cycles n0 to
-    ncyc - 1; each cycle's longest flight taking off in it, 0 without one, unfinished ones dropped
-    before counting), as ``flight_time_mean_last6_s`` of summary.json."""
+def flights_per_cycle(flights, ncyc: int) -> np.ndarray:
+    """The flight time [s] of each forcing cycle 0..ncyc-1: the longest flight taking off in it
+    (0 without one, NaN for one still going at the end)."""
     per = np.zeros(ncyc)
     for (t0, t1) in flights:
         c = int(math.floor(t0 / PERIOD))
         if 0 <= c < ncyc:
             per[c] = np.nan if math.isnan(t1 - t0) else max(per[c], t1 - t0)
-    tau = per[n0:]
+    return per
+
+
+def last_six_flights(flights, n0: int, ncyc: int) -> np.ndarray:
+    """The last six finished flights [s] of the measured cycles' flight times (cycles n0 to
+    ncyc - 1, :func:`flights_per_cycle`; unfinished ones dropped before counting), as
+    ``flight_time_mean_last6_s`` of summary.json."""
+    tau = flights_per_cycle(flights, ncyc)[n0:]
     return tau[~np.isnan(tau)][-6:]
 
 
@@ -1028,10 +1034,7 @@ def postprocess(name: str) -> dict:
         for r in rows:
             f.write(f"{r[0]},{r[1]:.6f},{r[2]:.6f},{r[3]:.6f},{r[4]:.4f},{r[5]:.4f}\n")
     # flight time per forcing cycle (0 if no take-off in that cycle), measured cycles
-    per = np.zeros(ncyc)
-    for r in rows:
-        if 0 <= r[0] < ncyc:
-            per[r[0]] = np.nan if math.isnan(r[3]) else max(per[r[0]], r[3])
+    per = flights_per_cycle(fl, ncyc)
     # off-floor time inside each cycle window (robust to flights spanning cycles)
     dtp = t[1] - t[0]
     wsm = max(1, int(round(FLIGHT_SMOOTH_S / dtp)))

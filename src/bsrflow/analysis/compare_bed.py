@@ -225,6 +225,24 @@ def _rms_window(t, period):
     return (t >= _startup_end(period)) & (t < (STARTUP_CYCLES + 5 - 1e-9) * period)
 
 
+def _mass_centre_rms_over_d(traj, t, com, s: BedSetup) -> float:
+    """The RMS difference [d] of a mass-centre series (t, com) [s, m], interpolated to the
+    reference trajectory's times, from the reference's ``com_rel_m`` over the window of
+    ``mass_centre_rms_over_d`` (:func:`_rms_window`; at the reference's own times the interpolation
+    returns the series' values exactly)."""
+    sel = _rms_window(traj["t_s"], s.period)
+    return float(math.sqrt(np.mean((np.interp(traj["t_s"][sel], t, com) - traj["com_rel_m"][sel]) ** 2))
+                 / s.diameter)
+
+
+def _last_six(t, force, s: BedSetup, threshold=FLIGHT_THRESHOLD):
+    """(flights, flight per cycle [s], the last six finished flights [s]) of a floor-force series
+    over the setup's cycles, cut at ``threshold`` of the bed's weight (the flight measure)."""
+    flights = flights_from_force(t, force, s.n_spheres * s.sphere_mass * s.gravity, threshold)
+    tau = flight_per_cycle(flights, s.period, s.cycles)
+    return flights, tau, last_complete_flights(tau)
+
+
 def _case_against(run, setup: BedSetup, ref: Path, tag: str):
     """(the case's dict, the reference's trajectory) of a continuum run (:func:`_continuum_flights`'
     tuple) against the reference run ``tag`` at the setup's Γ: the same run can be compared with
@@ -247,12 +265,10 @@ def _case_against(run, setup: BedSetup, ref: Path, tag: str):
         # flight_time_mean_last6_s dropped an unfinished last flight)
         dem_last6 = last_complete_flights(summ["flight_time_per_cycle_s"])
         dem_tau = float(np.mean(dem_last6))
-        sel = _rms_window(traj["t_s"], s.period)
-        com = np.interp(traj["t_s"][sel], res.t, res.mass_centre)
         case.update({
             "dem_flight_time_s": dem_tau,
             "flight_time_rel_diff": case["flight_time_s"] / dem_tau - 1.0,
-            "mass_centre_rms_over_d": float(math.sqrt(np.mean((com - traj["com_rel_m"][sel]) ** 2)) / s.diameter),
+            "mass_centre_rms_over_d": _mass_centre_rms_over_d(traj, res.t, res.mass_centre, s),
             "dem_mass_centre_mean_over_d": float(summ["com_rel_mean_over_d"]),
             "dem_top_max_over_d": float(summ["top99_rel_max_over_d"]),
             "dem_period_doubled": period_doubling_measure(dem_last6)["period_doubled"],
@@ -290,11 +306,9 @@ def _flight_by_threshold(res, ref: Path, s: BedSetup, tag: str):
     if not path.exists():
         return None
     rows = np.atleast_1d(_read_csv(path))
-    weight = s.n_spheres * s.sphere_mass * s.gravity
     thresholds = [float(v) for v in rows["threshold_over_weight"]]
     dem = [float(v) for v in rows["flight_time_mean_last6_s"]]
-    cont = [float(np.mean(last_complete_flights(flight_per_cycle(
-        flights_from_force(res.t, res.floor_force, weight, th), s.period, s.cycles)))) for th in thresholds]
+    cont = [float(np.mean(_last_six(res.t, res.floor_force, s, th)[2])) for th in thresholds]
     return {"threshold_over_weight": thresholds, "continuum_s": cont, "dem_s": dem,
             "rel_diff": [c / d - 1.0 for c, d in zip(cont, dem)]}
 
@@ -475,9 +489,7 @@ def _continuum_flights(s: BedSetup, progress=None):
     continuum bed ``s`` (:func:`bsrflow.numerics.bed_lagrangian.run_bed`)."""
     from ..numerics.bed_lagrangian import run_bed
     res = run_bed(s, progress=progress)
-    flights = flights_from_force(res.t, res.floor_force, s.n_spheres * s.sphere_mass * s.gravity)
-    tau = flight_per_cycle(flights, s.period, s.cycles)
-    return res, flights, tau, last_complete_flights(tau)
+    return (res,) + _last_six(res.t, res.floor_force, s)
 
 
 def _long_friction_run(setup: BedSetup) -> dict:
@@ -570,6 +582,27 @@ def _long_reference_tags(ref: Path, gamma: float) -> list:
     return out
 
 
+def _long_runs(ref: Path, gamma: float, base: BedSetup) -> list:
+    """[(tag, label, the continuum's setup, in the main law's spread)] of the reference's finished
+    30-cycle runs at Γ = ``gamma``: the main packing, the other packings (by seed), the other boxes
+    (the continuum at the box's N and side), then the other laws' and floors' beds
+    (:data:`LONG_VARIANTS`, against the continuum they are compared with at 11 cycles; not in
+    ``packing_spread.late``, which is the main law's)."""
+    long = base.with_(gamma=gamma, cycles=LONG_CYCLES)
+    out = [(tag, LONG_REFERENCE_RUNS + ("" if seed is None else f" (packing of seed {seed})"), long, True)
+           for tag, seed in _long_reference_tags(ref, gamma)]
+    for n, side in OTHER_BOXES:
+        tag = f"N{n}_L{side:g}d_c{LONG_CYCLES}"
+        if (_run_dir(ref, gamma, tag) / "summary.json").exists():
+            out.append((tag, LONG_REFERENCE_RUNS + f" (a {side:g} d box, N = {n})",
+                        long.with_(n_spheres=n, side=side * base.diameter), True))
+    for tag, label, kw in LONG_VARIANTS:
+        if (_run_dir(ref, gamma, f"{tag}_c{LONG_CYCLES}") / "summary.json").exists():
+            out.append((f"{tag}_c{LONG_CYCLES}", f"{label}, {LONG_CYCLES} cycles; the continuum over {LONG_CYCLES} "
+                        "cycles too", long.with_(**kw), False))
+    return out
+
+
 def _other_packing_tags(ref: Path, gamma: float, suffix: str = "") -> list:
     """The tags of the reference's other-packing runs at Γ = ``gamma`` (the main bed's law and
     floor, by seed; not the variants of such a packing, whose tags go on after the seed; only
@@ -601,6 +634,7 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
     gammas = [float(g) for g in (known if gammas is None else gammas)]
     cases, runs, extra, long_runs, spring_dashpot, large_box, elastic_floor = [], {}, [], [], [], [], []
     other_packing, long_reference = [], []
+    long_reference_runs = {}            # Γ -> _long_runs(...)
     # (kind, setup, reference tag, list it joins, what the reference run is)
     tasks = [("case", base.with_(gamma=g), MAIN_RUNS, cases, None) for g in gammas]
     if include_extra:
@@ -617,19 +651,9 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                   for g in LONG_FRICTION_GAMMAS]
         tasks += [("case", base.with_(gamma=float(g), floor_restitution=1.0), ELASTIC_FLOOR, elastic_floor,
                    ELASTIC_FLOOR_RUNS) for g in params.get("gamma_list_elastic_floor") or [] if float(g) in gammas]
-        tasks += [("case", base.with_(gamma=g, cycles=LONG_CYCLES), tag, long_reference,
-                   LONG_REFERENCE_RUNS + ("" if tag == LONG_REFERENCE else f" (packing of seed {seed})"))
-                  for g in gammas for tag, seed in _long_reference_tags(ref, g)]
-        tasks += [("case", base.with_(gamma=g, cycles=LONG_CYCLES, n_spheres=n, side=side * base.diameter),
-                   f"N{n}_L{side:g}d_c{LONG_CYCLES}", long_reference,
-                   LONG_REFERENCE_RUNS + f" (a {side:g} d box, N = {n})") for g in gammas for n, side in OTHER_BOXES
-                  if (_run_dir(ref, g, f"N{n}_L{side:g}d_c{LONG_CYCLES}") / "summary.json").exists()]
-        # the other laws' and floors' 30-cycle runs, against the continuum they are compared with
-        # at 11 cycles (not in packing_spread.late, which is the main law's)
-        tasks += [("case", base.with_(gamma=g, cycles=LONG_CYCLES, **kw), f"{tag}_c{LONG_CYCLES}", long_reference,
-                   f"{label}, {LONG_CYCLES} cycles; the continuum over {LONG_CYCLES} cycles too")
-                  for g in gammas for tag, label, kw in LONG_VARIANTS
-                  if (_run_dir(ref, g, f"{tag}_c{LONG_CYCLES}") / "summary.json").exists()]
+        long_reference_runs.update({g: _long_runs(ref, g, base) for g in gammas})
+        tasks += [("case", setup, tag, long_reference, label)
+                  for g in gammas for tag, label, setup, _ in long_reference_runs[g]]
 
     def finish(task, got):
         kind, setup, _, into, dem = task
@@ -735,7 +759,9 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                                 "mass-centre RMS keeps its window (3T-8T); dem_structure: LIGGGHTS's crystal-like "
                                 "fraction, solid fraction and floor-layer order at the start of every cycle "
                                 "(structure_per_cycle.csv)"),
-        "packing_spread": _packing_spread(cases, other_packing, ref, base, long_reference),
+        "packing_spread": _packing_spread(cases, other_packing, ref, base, long_reference,
+                                          {(g, tag) for g, runs in long_reference_runs.items()
+                                           for tag, _, _, spread in runs if spread}),
         "dem_lateral_structure": _lateral_structure(cases),
         "dem_lateral_structure_note": ("how far from horizontally uniform (the continuum's assumption) is LIGGGHTS's "
                                        "bed? Per main case, over the measured cycles (3-10): the mean amplitude [d] "
@@ -819,13 +845,13 @@ def _lateral_structure(cases) -> list:
     return out
 
 
-def _packing_spread(cases, other_packing, ref: Path, s: BedSetup, long_reference=()) -> list:
+def _packing_spread(cases, other_packing, ref: Path, s: BedSetup, long_reference=(), spread_runs=frozenset()) -> list:
     """Per Γ with other-packing runs: LIGGGHTS's flights over every packing (the main one first),
     their mean and sample standard deviation, the continuum's difference from that mean, and the
     RMS difference [d] of each other packing's mass centre from the main one's over the window of
     ``mass_centre_rms_over_d``; where 30-cycle runs exist, the same over their last six flights
-    (``late``: the packings that have one and the other boxes' runs, against the continuum's
-    30-cycle run of the main box)."""
+    (``late``: the runs of ``spread_runs``, {(Γ, tag)}: the packings' and the other boxes' 30-cycle
+    runs, :func:`_long_runs`, against the continuum's 30-cycle run of the main box)."""
     main = {c["gamma"]: c for c in cases}
     out = []
     for g in sorted({c["gamma"] for c in other_packing}):
@@ -835,12 +861,10 @@ def _packing_spread(cases, other_packing, ref: Path, s: BedSetup, long_reference
         others = [o for o in other_packing if o["gamma"] == g and "dem_flight_time_s" in o]
         flights = [c["dem_flight_time_s"]] + [o["dem_flight_time_s"] for o in others]
         a, _ = _reference_case(ref, g, MAIN_RUNS)
-        sel = _rms_window(a["t_s"], s.period)
         rms = []
         for o in others:
             b, _ = _reference_case(ref, g, o["dem_tag"])
-            rms.append(float(math.sqrt(np.mean((np.interp(a["t_s"][sel], b["t_s"], b["com_rel_m"])
-                                                 - a["com_rel_m"][sel]) ** 2)) / s.diameter))
+            rms.append(_mass_centre_rms_over_d(a, b["t_s"], b["com_rel_m"], s))
         mean = float(np.mean(flights))
         out.append({"gamma": g, "packings": ["main"] + [o["dem"] for o in others], "dem_flight_time_s": flights,
                     "dem_flight_mean_s": mean, "dem_flight_std_s": float(np.std(flights, ddof=1)),
@@ -849,9 +873,8 @@ def _packing_spread(cases, other_packing, ref: Path, s: BedSetup, long_reference
                     "continuum_rel_diff_to_mean": c["flight_time_s"] / mean - 1.0,
                     "continuum_rel_diff_to_main": c["flight_time_rel_diff"],
                     "dem_mass_centre_rms_from_main_over_d": rms})
-        late = [c for c in long_reference if c["gamma"] == g and "dem_flight_time_s" in c
-                and (c["dem_tag"] == LONG_REFERENCE or c["dem_tag"].startswith(OTHER_PACKING)
-                     or any(c["dem_tag"] == f"N{n}_L{side:g}d_c{LONG_CYCLES}" for n, side in OTHER_BOXES))]
+        late = [c for c in long_reference
+                if c["gamma"] == g and (g, c["dem_tag"]) in spread_runs and "dem_flight_time_s" in c]
         if len(late) >= 2:
             fl = [c["dem_flight_time_s"] for c in late]
             out[-1]["late"] = {"runs": [c["dem_tag"] for c in late], "dem_flight_time_s": fl,
@@ -879,8 +902,7 @@ def _floor_contact_effect(cases, elastic_floor, ref: Path, s: BedSetup) -> list:
         b, _ = _reference_case(ref, g, ELASTIC_FLOOR)
         rms = None
         if a is not None and b is not None and len(a) == len(b) and np.array_equal(a["t_s"], b["t_s"]):
-            sel = _rms_window(a["t_s"], s.period)
-            rms = float(math.sqrt(np.mean((a["com_rel_m"][sel] - b["com_rel_m"][sel]) ** 2)) / s.diameter)
+            rms = _mass_centre_rms_over_d(a, b["t_s"], b["com_rel_m"], s)
         dem = {"floor_e": c["dem_flight_time_s"], "floor_elastic": el["dem_flight_time_s"]}
         # where they were run: the main bed at e_w = 0.95, and the spring-dashpot bed with both floors
         for key, tag in (("floor_e0.95", MAIN_RUNS + "_ew0.95"), ("spring_dashpot_floor_e", SPRING_DASHPOT),

@@ -63,7 +63,7 @@ from .packing_bed import MAX_STATIC_OVERLAP, MAX_STEPS      # the packing bed's 
 
 __all__ = ["BedSetup", "g0_cs", "kinetic_pressure", "bulk_viscosity", "shear_viscosity", "pressure_and_viscosity",
            "conductivity",
-           "dissipation", "wall_loss", "constitutive_numpy"]
+           "dissipation", "wall_loss", "effective_restitution", "constitutive_numpy"]
 
 SQRT_PI = math.sqrt(math.pi)
 
@@ -137,6 +137,14 @@ def wall_loss(phi, theta, rho_s, e, e_w):
     spheres' pair contact value ρ_s φ g0, which the package used before 2026-12-02)."""
     t = max(theta, 0.0)
     return (1.0 - e_w) * kinetic_pressure(phi, t, rho_s, e) * math.sqrt(2.0 * t / math.pi)
+
+
+def effective_restitution(e: float, friction: float) -> float:
+    """e_eff = e − (3/2) μ exp(−3μ) (Chialvo and Sundaresan 2013's effective restitution of
+    frictional spheres, :attr:`BedSetup.dissipation_restitution`); e itself when μ = 0."""
+    if friction == 0.0:
+        return e
+    return e - 1.5 * friction * math.exp(-3.0 * friction)
 
 
 def constitutive_numpy(phi, theta, rho_s, d, e):
@@ -296,9 +304,7 @@ class BedSetup:
         restitution of frictional spheres, from their simulations of sheared frictional spheres,
         not fitted here): friction's extra loss in the kinetic theory of smooth spheres; the
         pressure, viscosities and conductivity keep e, as in their model.  e itself when μ = 0."""
-        if self.friction == 0.0:
-            return self.restitution
-        return self.restitution - 1.5 * self.friction * math.exp(-3.0 * self.friction)
+        return effective_restitution(self.restitution, self.friction)
 
     @property
     def floor_dissipation_restitution(self) -> float:
@@ -307,9 +313,7 @@ class BedSetup:
         :attr:`dissipation_restitution` (> 0: checked)."""
         if self.floor_restitution is None:
             return self.dissipation_restitution
-        if self.friction == 0.0:
-            return float(self.floor_restitution)
-        return self.floor_restitution - 1.5 * self.friction * math.exp(-3.0 * self.friction)
+        return effective_restitution(float(self.floor_restitution), self.friction)
 
     @property
     def amplitude(self) -> float:
