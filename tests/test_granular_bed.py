@@ -1071,3 +1071,26 @@ def test_packing_spread_late_takes_its_own_gammas_runs_only():
     assert out["late"]["runs"] == ["N2000_L13d_c30", "N2000_L13d_seed1_c30"]
     assert out["late"]["dem_flight_time_s"] == [0.024, 0.026]
     assert out["late"]["continuum_rel_diff_to_mean"] == pytest.approx(0.025 / 0.025 - 1.0)
+
+
+def test_reference_lateral_baseline_is_no_noise_floor_of_a_packed_bed():
+    """Why lateral_mode is read as an amplitude bound, not as a ratio to its shuffled baseline
+    (docs/model.md): on a packed, layered bed of 2000 spheres (13 x 13 per layer, 12 layers, jitter
+    0.1 d) the amplitude is far below the shuffled layout's when flat, and a surface heap of
+    amplitude 0.4 d (growing linearly from the floor) gives about 0.2 d, already above it."""
+    mod = _reference_script()
+    d, lx = mod.D, 13 * mod.D
+    rng = np.random.default_rng(1)
+    pts = np.array([(i * d, j * d, (k + 0.5) * d * 0.82) for k in range(12) for i in range(13) for j in range(13)])
+    top = np.where(pts[:, 2] == pts[:, 2].max())[0]
+    pts = np.delete(pts, rng.choice(top, 28, replace=False), 0) + rng.normal(0.0, 0.1 * d, (2000, 3))
+    h0 = pts[:, 2].max()
+
+    def mean_mode(a):
+        x = pts.copy()
+        x[:, 2] = x[:, 2] * (1.0 + a * d / h0 * np.cos(2 * np.pi * x[:, 0] / lx))
+        return np.mean([mod.lateral_mode(x, lx, rng) for _ in range(40)], axis=0) / d
+
+    flat, heap = mean_mode(0.0), mean_mode(0.4)
+    assert flat[0] / flat[1] < 0.3                        # flat and packed: far below the baseline
+    assert heap[0] == pytest.approx(0.2, rel=0.1) and heap[0] / heap[1] > 0.9

@@ -937,8 +937,8 @@ def lateral_mode(x: np.ndarray, lx: float, rng) -> tuple:
     with the heights shuffled among the spheres (their lateral positions kept): a bed with no
     lateral structure (a horizontally uniform one) has A of the order of A_shuffled, a tilted
     surface, heap or standing wave an A well above it.  The shuffled layout is a random one, noisier
-    than a packed flat bed (a review's synthetic check: a flat packed bed gives A/A_shuffled about
-    0.16, its surface raised and lowered by 0.4 d about 1.1), so A itself, in d, is the bound to read:
+    than a packed flat bed (on a synthetic packed bed A/A_shuffled is below 0.3 flat and above 0.9
+    with a surface heap of 0.4 d; tests/test_granular_bed.py), so A itself, in d, is the bound to read:
     a wave of the whole bed of peak-to-peak height h has A of about h/2, a heap of the surface alone
     (the displacement growing from 0 at the floor) about h/4."""
     z = x[:, 2] - x[:, 2].mean()
