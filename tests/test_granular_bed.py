@@ -254,7 +254,16 @@ def test_compare_bed_command_writes_the_schema(tmp_path, capsys):
                                         (["--cells", "5000"], "--cells 5000"), (["--gammas", "3", "3"], "twice"),
                                         (["--gammas", "3", "3.0000000001"], "twice"),
                                         (["--reference", "/nonexistent"], "--reference"),
-                                        (["--reference", "EMPTY_PARAMS"], "--reference")])
+                                        (["--reference", "EMPTY_PARAMS"], "--reference"),
+                                        (["--eulerian-cells-per-d", "2"], "--eulerian-cells-per-d needs --eulerian"),
+                                        (["--eulerian", "1", "--eulerian-lateral-cells", "4"],
+                                         "--eulerian-lateral-cells applies to --eulerian 2 or 3"),
+                                        (["--eulerian", "1", "--eulerian-cells-per-d", "0"],
+                                         "--eulerian-cells-per-d 0 is outside the valid range"),
+                                        (["--eulerian", "3", "--eulerian-lateral-cells", "1"],
+                                         "--eulerian-lateral-cells 1 is outside the valid range at dim = 3"),
+                                        (["--eulerian", "2", "--eulerian-perturbation", "1"],
+                                         "--eulerian-perturbation 1.0 is outside the valid range")])
 def test_compare_bed_bad_input_exits_2(argv, text, capsys, tmp_path):
     """Refused in one line before any run, and the --figures folder is not created."""
     if "EMPTY_PARAMS" in argv:                  # the csv and results/ there, params.json without its keys
@@ -1094,3 +1103,24 @@ def test_reference_lateral_baseline_is_no_noise_floor_of_a_packed_bed():
     flat, heap = mean_mode(0.0), mean_mode(0.4)
     assert flat[0] / flat[1] < 0.3                        # flat and packed: far below the baseline
     assert heap[0] == pytest.approx(0.2, rel=0.1) and heap[0] / heap[1] > 0.9
+
+
+def test_compare_bed_runs_the_model_on_the_eulerian_grid_too(tmp_path):
+    """--eulerian 2: the main case's bed on the 2-D Eulerian grid, against LIGGGHTS and the
+    Lagrangian run, with a lateral mode at the start (which decays: measured 2026-12-05 in 3-D,
+    docs/model.md)."""
+    out = tmp_path / "bed.json"
+    assert main(["compare-bed", "--gammas", "3", "--no-extra", "--cells", "24", "--eulerian", "2",
+                 "--eulerian-cells-per-d", "1", "--eulerian-lateral-cells", "2", "--eulerian-perturbation", "0.1",
+                 "--json", str(out)]) == 0
+    data = json.loads(out.read_text())
+    (case,) = data["eulerian_cases"]
+    assert (case["dim"], case["cells_per_d"], case["lateral_cells"], case["perturbation"]) == (2, 1, 2, 0.1)
+    assert case["grid_shape"][:2] == [2, 1]
+    for key in ("flight_time_s", "flight_time_rel_diff", "mass_centre_rms_over_d", "flight_rel_diff_to_lagrangian",
+                "mass_centre_rms_to_lagrangian_over_d", "lateral_spread_max_over_d"):
+        assert isinstance(case[key], float) and math.isfinite(case[key]), key
+    assert case["lagrangian_flight_time_s"] == data["cases"][0]["flight_time_s"]
+    assert case["flight_time_rel_diff"] == pytest.approx(case["flight_time_s"] / case["dem_flight_time_s"] - 1.0)
+    assert case["lateral_spread_max_over_d"] > 0.0 and abs(case["mass_error"]) < 1e-10
+    assert "eulerian_note" in data

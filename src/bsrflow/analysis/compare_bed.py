@@ -622,13 +622,16 @@ MODEL = ("packing stress + granular temperature (bsrflow.physics.granular_bed), 
 
 
 def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, progress=None, include_extra=True,
-                log=None, workers=1):
+                log=None, workers=1, eulerian=None):
     """Run the comparison (module docstring); returns the JSON-ready dict.  ``log(line)`` is called
     after every run.  ``workers`` > 1: the runs on that many processes (the same numbers, every
     run being serial and deterministic; the wall times then those of a shared machine;
     ``progress`` is not called from them).  An interrupt (KeyboardInterrupt, also SIGTERM) or a
     stop (SimulationError) carries the finished runs as ``exc.partial`` (the JSON's form without
-    the summaries)."""
+    the summaries).  ``eulerian``: None, or the keywords (dim, cells_per_d, lateral_cells,
+    perturbation) of :func:`bsrflow.numerics.bed_eulerian.run_eulerian_bed`: the same model on the
+    Eulerian grid at every main Γ too (``eulerian_cases``, :func:`eulerian_case`; serial, after the
+    other runs)."""
     ref = Path(reference)
     known, params, base = reference_bed(ref, n_cells)
     gammas = [float(g) for g in (known if gammas is None else gammas)]
@@ -823,8 +826,60 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                     "long_reference_cases", "long_reference_note", "dem_lateral_structure", "dem_lateral_structure_note",
                     "packing_spread", "packing_spread_note"):
             del out[key]
+    if eulerian is not None:
+        out["eulerian_cases"] = []
+        for case in cases:
+            got = eulerian_case(base.with_(gamma=case["gamma"]), case, runs[case["gamma"]], progress=progress,
+                                **eulerian)
+            out["eulerian_cases"].append(got)
+            if log:
+                across = "" if got["dim"] == 1 else f", {got['lateral_cells']} across"
+                log(f"  Γ = {got['gamma']:g}, Eulerian {got['dim']}-D ({got['cells_per_d']} cells per d{across}): flight "
+                    f"{1e3 * got['flight_time_s']:.1f} ms (Lagrangian {1e3 * got['lagrangian_flight_time_s']:.1f}, "
+                    f"LIGGGHTS {1e3 * got.get('dem_flight_time_s', math.nan):.1f} ms), mass-centre RMS "
+                    f"{got.get('mass_centre_rms_over_d', math.nan):.2f} d, {got['wall_time_s']:.1f} s")
+        out["eulerian_note"] = EULERIAN_NOTE
     if figures:
         _figures(out, runs, base, Path(figures), ref)
+    return out
+
+
+EULERIAN_NOTE = (
+    "the same model (packing stress + granular temperature, nothing fitted) on the Eulerian grid of "
+    "bsrflow.numerics.bed_eulerian (1-D column, or a 2-D / 3-D bed with periodic sides, perturbed laterally by "
+    "'perturbation' at the start), against LIGGGHTS (as the main cases) and against the main cases' Lagrangian run: "
+    "a second discretisation of one model; lateral_spread_max_over_d is the largest standard deviation of the "
+    "columns' mass centres over the run (0 for a horizontally uniform bed)")
+
+
+def eulerian_case(setup: BedSetup, case: dict, lagrangian, dim=1, cells_per_d=4, lateral_cells=1, perturbation=0.0,
+                  progress=None) -> dict:
+    """The bed ``setup`` on the Eulerian grid (:func:`bsrflow.numerics.bed_eulerian.run_eulerian_bed`)
+    against LIGGGHTS (the main ``case``'s reference values: the same flight measure and mass-centre
+    RMS window) and against the Lagrangian run ``lagrangian`` = (its BedResult, the reference's
+    trajectory or None)."""
+    from ..numerics.bed_eulerian import run_eulerian_bed
+    s = setup
+    res, traj = lagrangian
+    r = run_eulerian_bed(s, dim, cells_per_d, lateral_cells, perturbation, save_every=s.save_every, progress=progress)
+    flights, tau, last6 = _last_six(r["t"], r["floor_force"], s)
+    flight = float(np.mean(last6))
+    out = {"gamma": s.gamma, "dim": dim, "cells_per_d": cells_per_d, "lateral_cells": lateral_cells,
+           "perturbation": perturbation, "grid_shape": list(r["shape"]), "cell_size_m": r["dx"],
+           "flight_time_s": flight, "flight_time_per_cycle_s": tau.tolist(),
+           "takeoff_phase": flight_phases(flights, s.period, s.cycles)[0],
+           "landing_phase": flight_phases(flights, s.period, s.cycles)[1],
+           "lagrangian_flight_time_s": case["flight_time_s"],
+           "flight_rel_diff_to_lagrangian": flight / case["flight_time_s"] - 1.0,
+           "mass_centre_rms_to_lagrangian_over_d": float(math.sqrt(np.mean(
+               (r["mass_centre"][_rms_window(r["t"], s.period)]
+                - np.interp(r["t"][_rms_window(r["t"], s.period)], res.t, res.mass_centre)) ** 2)) / s.diameter),
+           "lateral_spread_max_over_d": float(r["lateral_spread"].max() / s.diameter),
+           "mass_error": r["mass_error"], "steps": r["steps"], "wall_time_s": r["wall_time_s"]}
+    if "dem_flight_time_s" in case and traj is not None:
+        out.update({"dem_flight_time_s": case["dem_flight_time_s"],
+                    "flight_time_rel_diff": flight / case["dem_flight_time_s"] - 1.0,
+                    "mass_centre_rms_over_d": _mass_centre_rms_over_d(traj, r["t"], r["mass_centre"], s)})
     return out
 
 
@@ -1313,6 +1368,15 @@ def add_parser(sub):
     p.add_argument("--workers", type=int, default=1, metavar="N",
                    help="run the continuum's runs on N processes (default 1; at most 4 per CPU); the same numbers, "
                         "the wall times then those of a shared machine")
+    p.add_argument("--eulerian", type=int, choices=(1, 2, 3), metavar="DIM",
+                   help="also run the model on the Eulerian grid in DIM = 1, 2 or 3 dimensions at every main Γ "
+                        "(eulerian_cases; serial, 20-40 s per Γ in 1-D at 4 cells per d on this VM, far more in 3-D)")
+    p.add_argument("--eulerian-cells-per-d", type=int, metavar="N",
+                   help="the Eulerian grid's cells per diameter, vertically (default 4; 1 to 64)")
+    p.add_argument("--eulerian-lateral-cells", type=int, metavar="N",
+                   help="in 2-D / 3-D: cells across the box's side (default 4; 2 to 256)")
+    p.add_argument("--eulerian-perturbation", type=float, metavar="EPS",
+                   help="in 2-D / 3-D: the start's lateral density mode 1 + EPS cos(2πx/L) (default 0; [0, 1))")
     p.add_argument("--reference", default=os.fspath(REFERENCE), metavar="DIR",
                    help="the LIGGGHTS data folder (default: the repository's reference/liggghts_bed)")
     p.set_defaults(func=_main)
@@ -1353,6 +1417,31 @@ def _main(args) -> int:
     if not 1 <= args.workers <= max_workers:
         raise ValueError(f"--workers {args.workers} is outside the valid range [1, {max_workers}] (4 per CPU of this "
                          "machine)")
+    eulerian = None
+    given = {k: v for k, v in (("--eulerian-cells-per-d", args.eulerian_cells_per_d),
+                               ("--eulerian-lateral-cells", args.eulerian_lateral_cells),
+                               ("--eulerian-perturbation", args.eulerian_perturbation)) if v is not None}
+    if args.eulerian is None and given:
+        raise ValueError(f"{next(iter(given))} needs --eulerian DIM")
+    if args.eulerian == 1:
+        lateral = [k for k in given if k != "--eulerian-cells-per-d"]
+        if lateral:
+            raise ValueError(f"{lateral[0]} applies to --eulerian 2 or 3 (a column has no lateral cells)")
+    if args.eulerian is not None:
+        eulerian = {"dim": args.eulerian,
+                    "cells_per_d": 4 if args.eulerian_cells_per_d is None else args.eulerian_cells_per_d,
+                    "lateral_cells": 1 if args.eulerian == 1 else (args.eulerian_lateral_cells or 4),
+                    "perturbation": 0.0 if args.eulerian_perturbation is None else args.eulerian_perturbation}
+        from ..numerics.bed_eulerian import EulerianBed
+        try:
+            EulerianBed(reference_bed(ref)[2], **eulerian)
+        except ValueError as exc:
+            msg = str(exc)
+            for k, v in (("cells_per_d", "--eulerian-cells-per-d"), ("lateral_cells", "--eulerian-lateral-cells"),
+                         ("perturbation", "--eulerian-perturbation")):
+                if msg.startswith(k + " = "):
+                    msg = v + " " + msg[len(k) + 3:]
+            raise ValueError(msg) from None
     if args.figures is not None:                     # created only once everything else is checked
         check_output_dir(args.figures, "--figures", create=True)
     t0 = time.perf_counter()
@@ -1362,7 +1451,7 @@ def _main(args) -> int:
     from .compare import _keeping_partial, _log
     with _keeping_partial(args.json, lambda p: f"{len(p['cases']) + len(p['extra_cases'])} finished run(s)"):
         out = compare_bed(args.gammas, args.cells, ref, args.figures, include_extra=not args.no_extra, log=_log,
-                          workers=args.workers)
+                          workers=args.workers, eulerian=eulerian)
     print(format_table(out))
     pd, cost = out["period_doubling_gamma"], out["cost_s"]
 
