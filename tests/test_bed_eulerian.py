@@ -166,3 +166,86 @@ def test_bad_settings_are_refused_in_one_line(kw, name):
         B.EulerianBed(BedSetup(), **kw)
     msg = str(exc.value)
     assert msg.startswith(name + " = ") and "valid range" in msg and "\n" not in msg
+
+
+EULERIAN_CONFIG = """[layer]
+kind = "granular_bed_eulerian"
+dimension = 2
+lateral_cells = 3
+cells_per_d = 1
+perturbation = 0.1
+n_spheres = 600
+gamma = 3.0
+cycles = 2
+settle = 0.005
+[output]
+checkpoint_every = 0.05
+"""
+
+
+def test_the_eulerian_bed_runs_from_a_config_and_resumes_bit_for_bit(tmp_path):
+    """``kind = "granular_bed_eulerian"`` through the shared driver: the file's column holds the
+    bed's mass, its state the grid's fields with units (the run of the same setup through the
+    Python API bit for bit), and a run interrupted at 0.075 s resumes from its checkpoint to the
+    same file."""
+    import xarray as xr
+    from conftest import interrupt_and_resume
+
+    from bsrflow.io.layer_runner import load_layer_config, run_layer_config
+    from bsrflow.io.netcdf import read_snapshots
+    from bsrflow.physics.granular_bed import EulerianBedSetup
+    cfgfile = tmp_path / "bed.toml"
+    cfgfile.write_text(EULERIAN_CONFIG)
+    cfg = load_layer_config(cfgfile)
+    assert isinstance(cfg.setup, EulerianBedSetup)
+    full, part = tmp_path / "full.nc", tmp_path / "part.nc"
+    run_layer_config(cfg, full)
+    a, attrs = read_snapshots(full)
+    s = cfg.setup
+    mass = s.n_spheres * s.sphere_mass
+    np.testing.assert_allclose(a["mass"], mass, rtol=1e-12)
+    assert attrs["status"] == "ok" and list(attrs["grid_shape"]) == [3, 1, a["state_theta"].shape[-1]]
+    bed = B.EulerianBed.from_setup(s)                 # the same run through the API
+    bed.settle()
+    bed.apply_velocity_jump(s.amplitude * s.omega)
+    for k in range(1, 11):
+        bed.advance((k - 1) * 1e-3, k * 1e-3)
+    np.testing.assert_array_equal(a["state_solid_fraction"][10], bed.q[0] / s.density)
+    assert a["state_floor_force"][10] == bed.last_floor_force
+    with xr.open_dataset(full) as ds:
+        units = {k: ds[k].attrs["units"] for k in ("rho", "state_theta", "state_velocity_z", "state_solid_fraction",
+                                                   "state_floor_force")}
+    assert units == {"rho": "kg m-1", "state_theta": "m2 s-2", "state_velocity_z": "m s-1",
+                     "state_solid_fraction": "1", "state_floor_force": "N"}
+
+    def check(ck):
+        assert set(ck.fields) == {"q", "floor_force"}
+
+    outcome = interrupt_and_resume(cfg, part, between=check)
+    assert outcome.resumed_from == pytest.approx(0.05)
+    b, _ = read_snapshots(part)
+    for k in ("time", "rho", "u_z", "mass_centre", "state_solid_fraction", "state_theta", "state_floor_force"):
+        np.testing.assert_array_equal(a[k], b[k])
+
+
+@pytest.mark.parametrize("line, text", [("n_cells = 40", "layer.n_cells: unknown key"),
+                                        ("dimension = 4", "layer.dimension"),
+                                        ("lateral_cells = 1", "layer.lateral_cells"),
+                                        ("cells_per_d = 64\ncycles = 10000", "layer.cells_per_d")])
+def test_eulerian_bed_config_refusals(tmp_path, line, text, capsys):
+    from bsrflow.cli import main
+    cfg = tmp_path / "bed.toml"
+    body = EULERIAN_CONFIG.replace("lateral_cells = 3\n", "").replace("dimension = 2\n", "")
+    body = body.replace("cycles = 2\n", "").replace("cells_per_d = 1\n", "")
+    extra = {"dimension = 4": "lateral_cells = 3\ncells_per_d = 1\ncycles = 2\n",
+             "lateral_cells = 1": "dimension = 2\ncells_per_d = 1\ncycles = 2\n"}.get(line, "dimension = 2\nlateral_cells = 3\n")
+    if "cycles" not in line and "cycles" not in extra:
+        extra += "cycles = 2\n"
+    if "cells_per_d" not in line and "cells_per_d" not in extra:
+        extra += "cells_per_d = 1\n"
+    cfg.write_text(body.replace("[output]", line + "\n" + extra + "[output]"))
+    out = tmp_path / "bed.nc"
+    assert main(["run", str(cfg), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert text in err and len(err.splitlines()) == 1, err
+    assert not out.exists()

@@ -1,10 +1,12 @@
 """``bsrflow compare-bed``: the vibrated bed's continuum against the committed LIGGGHTS data
 (issue #19; the model: :mod:`bsrflow.physics.granular_bed`, the data: reference/liggghts_bed).
 
-The continuum is the horizontally uniform bed, i.e. the 1-D limit of the 3-D bed (a
-horizontally uniform 3-D run equals it; the 3-D solver of this model is not built yet): the
-packing stress of the contact law plus the granular temperature of kinetic theory, nothing
-fitted.  For every Γ of the main LIGGGHTS runs (N = 2000, Walton–Braun, e = 0.9, frictionless)
+The continuum is the horizontally uniform bed, i.e. the 1-D limit of the 3-D bed, on Lagrangian
+cells: the packing stress of the contact law plus the granular temperature of kinetic theory,
+nothing fitted.  ``--eulerian DIM`` runs the same model on the Eulerian grid of
+:mod:`bsrflow.numerics.bed_eulerian` too, as a column (DIM 1) or a 2-D / 3-D bed with periodic
+sides (whose horizontally uniform state equals the column bit for bit), at every main Γ
+(``eulerian_cases``: against LIGGGHTS and against the Lagrangian run).  For every Γ of the main LIGGGHTS runs (N = 2000, Walton–Braun, e = 0.9, frictionless)
 the same measures as the reference's post-processing (``reference/liggghts_bed/run_liggghts.py``):
 
 * flight time per cycle: the maximal intervals with the 1-ms moving average of the floor force

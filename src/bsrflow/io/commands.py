@@ -39,7 +39,8 @@ def add_parser(sub):
     p = sub.add_parser("run", help="run a config (TOML) into a netCDF file, with checkpoints and --resume",
                        description="Validate CONFIG, run the tapped column (or, for a config with a "
                                    "[layer] table, a 2-D / 3-D layer, with optional VTK output, or "
-                                   "kind = \"granular_bed\", the vibrated bed of compare-bed; "
+                                   "kind = \"granular_bed\", the vibrated bed of compare-bed, or "
+                                   "\"granular_bed_eulerian\", that bed on a 1-, 2- or 3-D Eulerian grid; "
                                    "bsrflow.io.layer_runner) and write snapshots to a netCDF4 file as "
                                    "the run goes.")
     p.add_argument("config", metavar="CONFIG", help="TOML config (see `bsrflow init`)")

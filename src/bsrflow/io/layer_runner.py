@@ -28,6 +28,17 @@ on bins of d/10) with, by default (``[output] state``), the cells' state (``stat
 ``state_solid_fraction``, ``state_theta``, ``state_delta_max``) and ``state_floor_force`` [N];
 no VTK, no tracers (refused in one line).
 
+``kind = "granular_bed_eulerian"`` (:class:`bsrflow.physics.granular_bed.EulerianBedSetup`: the
+same fields but ``n_cells``, and ``dimension``, ``cells_per_d``, ``lateral_cells``,
+``perturbation``) runs the same bed on the Eulerian grid of
+:class:`bsrflow.numerics.bed_eulerian.EulerianBed` (1-, 2- or 3-D, periodic sides) into the same
+column file (``rho``, ``u_z``: the grid's mass per metre of height and its mean vertical velocity on
+the d/10 bins) with, by default, the grid's fields as ``state_solid_fraction``,
+``state_velocity_x/_y/_z``, ``state_theta``, ``state_delta_max`` on the dimensions ``grid_x``,
+``grid_y``, ``grid_z`` (the cell sizes in the attribute ``grid_cell_size_m``) and
+``state_floor_force``; checkpoints of its conserved fields; no VTK and no tracers yet (refused
+in one line).
+
 Tracers (optional) are moved with the interpolated velocity by the scheme's tracer integrator
 (:meth:`bsrflow.numerics.solver_nd.SimulationND.run`; for the packing bed the fields' SSP-RK3
 stages with the mass-weighted interpolation of :func:`bsrflow.numerics.packing_nd.tracer_velocity`)
@@ -67,7 +78,9 @@ from ..physics.motion import MAX_SETTLE_TIME
 
 __all__ = ["is_layer_config", "load_layer_config", "run_layer_config", "LayerOutcome"]
 
-KINDS = ("tapped_layer", "vibrated_box", "packing_bed", "granular_bed")
+KINDS = ("tapped_layer", "vibrated_box", "packing_bed", "granular_bed", "granular_bed_eulerian")
+BED_KINDS = ("granular_bed", "granular_bed_eulerian")
+"""The kinds of the vibrated bed of packing stress and granular temperature (the column file)."""
 _OUTPUT_KEYS = {"vtk": bool, "checkpoint_every": float, "state": bool}
 
 
@@ -126,11 +139,11 @@ def _toml_value(value) -> str:
 
 
 def _kind_classes() -> dict:
-    from ..physics.granular_bed import BedSetup
+    from ..physics.granular_bed import BedSetup, EulerianBedSetup
     from ..physics.packing_bed import PackingBed
     from ..physics.scenarios_nd import TappedLayer, VibratedBox
     return {"tapped_layer": TappedLayer, "vibrated_box": VibratedBox, "packing_bed": PackingBed,
-            "granular_bed": BedSetup}
+            "granular_bed": BedSetup, "granular_bed_eulerian": EulerianBedSetup}
 
 
 def load_layer_config(path, overrides=()) -> LayerConfig:
@@ -161,9 +174,9 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
     if kind not in KINDS:
         raise ConfigError("layer.kind", f"{kind!r} is not one of {', '.join(KINDS)}")
     cls = _kind_classes()[kind]
-    names = {f.name: f for f in dataclasses.fields(cls)}
+    names = {f.name: f for f in dataclasses.fields(cls) if f.name not in _NOT_OPTIONS.get(kind, ())}
     kw = {}
-    if kind == "granular_bed":
+    if kind in BED_KINDS:
         kw["save_every"] = GRANULAR_BED_SAVE_EVERY      # a config run's default (compare-bed saves every 0.1 ms)
     ranges = _RANGES[kind]
     for key, value in layer.items():
@@ -177,7 +190,7 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
         setup = cls(**kw)
     except (ValueError, TypeError) as exc:
         msg = str(exc).splitlines()[0]
-        if kind != "granular_bed":       # a grid too large, or a bound of the field the user set
+        if kind not in BED_KINDS:        # a grid too large, or a bound of the field the user set
             raw = _unchecked_setup(cls, kw)
             problem = _size_problem(kind, raw, given) or _reblamed(kind, raw, given, msg)
             if problem:
@@ -194,7 +207,7 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
         raise ConfigError(f"layer.{drive}", f"{kw.get(drive, getattr(setup, drive))!r} gives the floor a largest speed "
                           f"of {setup.floor_speed():.3g} m/s and an unbounded domain (the energy bound (3aω)²/(2g)); "
                           f"valid: a finite floor speed, at most {MAX_LAYER_CELLS:.0e} cells in the grid")
-    problem = None if kind == "granular_bed" else _size_problem(kind, setup, given)
+    problem = None if kind in BED_KINDS else _size_problem(kind, setup, given)
     if problem:                          # before the grid is made (Python floats: no overflow)
         raise ConfigError(*problem)
     try:
@@ -216,9 +229,15 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
     vtk = out.get("vtk", False)
     if not isinstance(vtk, bool):
         raise ConfigError("output.vtk", f"{vtk!r} must be true or false")
-    state = out.get("state", kind == "granular_bed")
+    state = out.get("state", kind in BED_KINDS)
     if not isinstance(state, bool):
         raise ConfigError("output.state", f"{state!r} must be true or false")
+    if kind == "granular_bed_eulerian":
+        if vtk:
+            raise ConfigError("output.vtk", "true: not an option of kind = \"granular_bed_eulerian\" (not yet: its "
+                              "cells' fields are the file's state_<name> variables, the column its rho and u_z)")
+        if "tracers" in data:
+            raise ConfigError("tracers", "not an option of kind = \"granular_bed_eulerian\" (not yet)")
     if kind == "granular_bed":
         if vtk:
             raise ConfigError("output.vtk", "true: not an option of kind = \"granular_bed\" (a horizontally uniform "
@@ -226,12 +245,12 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
         if "tracers" in data:
             raise ConfigError("tracers", "not an option of kind = \"granular_bed\" (its Lagrangian cells' faces, "
                               "state_face_height in the file, are its material lines)")
-    if state and kind not in ("packing_bed", "granular_bed"):
-        raise ConfigError("output.state", f"true: an option of kind = \"packing_bed\" or \"granular_bed\" (the state of {kind!r}, "
+    if state and kind not in ("packing_bed",) + BED_KINDS:
+        raise ConfigError("output.state", f"true: an option of kind = \"packing_bed\", \"granular_bed\" or \"granular_bed_eulerian\" (the state of {kind!r}, "
                           "rho and u on the grid, is written in every file)")
     t_end = float(setup.t_end)
     if float(setup.save_every) > t_end:
-        if kind == "granular_bed" and "save_every" not in layer:
+        if kind in BED_KINDS and "save_every" not in layer:
             raise ConfigError("layer.save_every", f"not given: its default {GRANULAR_BED_SAVE_EVERY:g} s is outside the "
                               f"valid range (0, t_end = {t_end:g}] s (t_end = cycles / frequency); set it")
         raise ConfigError("layer.save_every", f"{setup.save_every!r} is outside the valid range (0, t_end = {t_end:g}] s")
@@ -430,6 +449,14 @@ _RANGES = {
         "floor_restitution": _Range(0, 1, lo_open=True, note="(or not given: the spheres' restitution)"),
     },
 }
+_RANGES["granular_bed_eulerian"] = {**{k: v for k, v in _RANGES["granular_bed"].items() if k != "n_cells"},
+                                    "dimension": _Range(1, 3, integer=True),
+                                    "cells_per_d": _Range(1, 64, integer=True),
+                                    "lateral_cells": _Range(1, 256, integer=True,
+                                                            note="(1 for a column, at least 2 in 2-D / 3-D)"),
+                                    "perturbation": _Range(0, 1, hi_open=True, note="(0 for a column)")}
+_NOT_OPTIONS = {"granular_bed_eulerian": ("n_cells",)}
+"""Fields of a kind's class that its config does not take (the Eulerian bed has no Lagrangian cells)."""
 """Each kind's fields' valid ranges, as its one-line errors state them (the scenario classes check
 them; those that depend on other fields are narrowed there)."""
 
@@ -1092,8 +1119,15 @@ class GranularBedJob(_ControllerJob):
     name = "granular bed solver (horizontally uniform, Lagrangian cells)"
 
     def prepare(self):
+        from ..numerics.bed_eulerian import EulerianBed
         from ..numerics.bed_lagrangian import GranularBedColumn
-        self.disc = GranularBedColumn(self.setup, settle=False)      # settled in integrate (a resume does not)
+        from ..physics.granular_bed import EulerianBedSetup
+        if isinstance(self.setup, EulerianBedSetup):
+            self.disc = EulerianBed.from_setup(self.setup)             # settled in integrate (a resume does not)
+            self.name = (f"granular bed solver (Eulerian grid, {self.setup.dimension}-D, "
+                         f"{' x '.join(str(n) for n in self.disc.shape)} cells)")
+        else:
+            self.disc = GranularBedColumn(self.setup, settle=False)
         self.grid, self.motion = self.disc.grid, self.disc.motion
         self.restored = False
 
@@ -1103,7 +1137,12 @@ class GranularBedJob(_ControllerJob):
 
     def compile(self, t0):
         from ..numerics.bed_lagrangian import _compile_bed
-        _compile_bed()
+        if self.disc.name == "granular_bed_eulerian":
+            q = self.disc.q.copy()
+            self.disc.advance(t0, t0)                      # (no step: compiles the loop)
+            self.disc.q[...] = q
+        else:
+            _compile_bed()
 
     def integrate(self, t0, save_times, checkpoint_times, observers, progress, on_checkpoint):
         if not self.restored:
@@ -1112,8 +1151,12 @@ class GranularBedJob(_ControllerJob):
         super().integrate(t0, save_times, checkpoint_times, observers, progress, on_checkpoint)
 
     def _attrs(self):
-        return {"config": self.cfg.text, "config_resolved": self.cfg.resolved_text(),
-                "scheme": "granular_bed_lagrangian", "kernel": "granular_bed", "dimension": 1,
+        eulerian = self.disc.name == "granular_bed_eulerian"
+        extra = ({"grid_dimension": int(self.setup.dimension), "grid_shape": list(self.disc.shape),
+                  "grid_cell_size_m": [float(v) for v in self.disc.dx]} if eulerian else {})
+        return {**extra, "config": self.cfg.text, "config_resolved": self.cfg.resolved_text(),
+                "scheme": "granular_bed_eulerian" if eulerian else "granular_bed_lagrangian", "kernel": "granular_bed",
+                "dimension": 1,
                 "scenario": "granular_bed", "diameter": float(self.setup.diameter),
                 "bed_area_m2": float(self.setup.area),
                 "rho_note": "rho is the bed's mass per metre of height (rho_s phi times the box's area)"}

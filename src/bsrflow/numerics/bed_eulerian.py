@@ -513,10 +513,6 @@ def work_arrays(shape):
             np.zeros((9,) + cells), np.zeros(cells), np.zeros(cells), np.zeros(cells[:2]))
 
 
-MAX_CELLS_PER_D = 64
-MAX_LATERAL_CELLS = 256
-
-
 def scheme_params(setup, cells_per_d):
     """(par array of :func:`bed_rhs`, dict of the same by name) for a
     :class:`~bsrflow.physics.granular_bed.BedSetup`: d, m = ρ_c d, k1 = K_eff/A [Pa/m], k2 = k1/e²,
@@ -538,7 +534,12 @@ class EulerianBed:
     (module docstring): ``dim`` 1 (a column), 2 (x, z) or 3 (x, y, z); ``cells_per_d`` cells per
     diameter vertically; ``lateral_cells`` cells across the box's side L (periodic), so the
     horizontal cells are L/lateral_cells wide; the domain reaches the setup's
-    :meth:`~bsrflow.physics.granular_bed.BedSetup.energy_bound_height` (a lid there).
+    :attr:`~bsrflow.physics.granular_bed.BedSetup.output_top` (by default the energy bound's
+    height; a lid there).  For ``bsrflow run`` (``kind = "granular_bed_eulerian"``) it is the
+    controller's discretisation, as :class:`bsrflow.numerics.bed_lagrangian.GranularBedColumn`:
+    :meth:`observe` gives the column of d/10 bins of the setup's output grid (the bed's mass per
+    metre of height and its mean vertical velocity), :attr:`fields` the conserved state for
+    checkpoints, :meth:`output_fields` the state for the file (with units).
 
     The bed starts at rest as :func:`bsrflow.numerics.bed_lagrangian.static_bed`'s (its
     cumulative mass per area, cell-averaged; δ_max its overlap), θ = θ_seed; ``perturbation`` ε
@@ -547,23 +548,12 @@ class EulerianBed:
     In 2-D the fields are those of a bed uniform in y (per unit depth: the 3-D values)."""
 
     def __init__(self, setup, dim=1, cells_per_d=4, lateral_cells=1, perturbation=0.0, cfl=None):
+        """(For an :class:`~bsrflow.physics.granular_bed.EulerianBedSetup`, :meth:`from_setup`
+        takes the grid from the setup.)"""
+        from ..physics.granular_bed import check_eulerian_grid
+        from ..physics.motion import SinusoidalVibration
         from .bed_lagrangian import static_bed
-        if dim not in (1, 2, 3) or isinstance(dim, bool):
-            raise ValueError(f"dim = {dim!r} is outside the valid range {{1, 2, 3}}")
-        if isinstance(cells_per_d, bool) or not isinstance(cells_per_d, (int, np.integer)) or not (
-                1 <= cells_per_d <= MAX_CELLS_PER_D):
-            raise ValueError(f"cells_per_d = {cells_per_d!r} is outside the valid range: integers in "
-                             f"[1, {MAX_CELLS_PER_D}]")
-        lo = 1 if dim == 1 else 2
-        hi = 1 if dim == 1 else MAX_LATERAL_CELLS
-        if isinstance(lateral_cells, bool) or not isinstance(lateral_cells, (int, np.integer)) or not (
-                lo <= lateral_cells <= hi):
-            raise ValueError(f"lateral_cells = {lateral_cells!r} is outside the valid range at dim = {dim}: "
-                             f"integers in [{lo}, {hi}]")
-        if not (isinstance(perturbation, (int, float)) and math.isfinite(perturbation)
-                and 0.0 <= perturbation < 1.0) or (dim == 1 and perturbation != 0.0):
-            raise ValueError(f"perturbation = {perturbation!r} is outside the valid range at dim = {dim}: "
-                             + ("[0, 1)" if dim > 1 else "[0, 0] (a column has no lateral mode)"))
+        check_eulerian_grid(dim, cells_per_d, lateral_cells, perturbation)
         cfl = setup.cfl if cfl is None else cfl
         if not (isinstance(cfl, (int, float)) and 0.0 < cfl <= 0.5):
             raise ValueError(f"cfl = {cfl!r} is outside the valid range (0, 0.5]")
@@ -574,7 +564,7 @@ class EulerianBed:
         dz = s.diameter / cells_per_d
         dh = s.side / lateral_cells
         self.dx = np.array([dh, dh, dz])
-        nz = int(math.ceil(s.energy_bound_height() / dz - 1e-9))
+        nz = int(math.ceil(s.output_top / dz - 1e-9))
         nx = lateral_cells
         ny = lateral_cells if dim == 3 else 1
         self.z = (np.arange(nz) + 0.5) * dz
@@ -597,6 +587,16 @@ class EulerianBed:
         self.work = work_arrays(q.shape)
         self.counters = np.zeros(3, np.int64)
         self.mass0 = float(q[RHO].sum())
+        self.motion = SinusoidalVibration(s.amplitude, s.frequency, start=0.0)
+        self.steps = 0
+        self.t = 0.0
+        self._floor_force = np.zeros(1)          # the last advance's mean floor force [N] (checkpointed)
+        self._grid = None
+
+    @classmethod
+    def from_setup(cls, setup):
+        """The bed of an :class:`~bsrflow.physics.granular_bed.EulerianBedSetup` (its grid fields)."""
+        return cls(setup, setup.dimension, setup.cells_per_d, setup.lateral_cells, setup.perturbation)
 
     @property
     def shape(self):
@@ -606,20 +606,124 @@ class EulerianBed:
         """The floor's velocity jumps by dv [m/s]: the bed's, relative to it, by −dv."""
         self.q[MZ] -= self.q[RHO] * dv
 
+    STEP_CHUNK_CELL_STEPS = 1 << 22
+    """Cell-steps per compiled call (about 1-4 s): Ctrl-C and SIGTERM are handled between calls."""
+
     def advance(self, t0, t1, moving=True):
-        """Steps from t0 to t1 [s]; returns the mean floor force over the interval [N] (the floor's
-        stress, mean over the columns, times the area).  A failed state raises
-        :class:`bsrflow.numerics.solver.SimulationError` naming the time and the cell."""
+        """Steps from t0 to t1 [s] (the floor moving unless ``moving`` is False); returns the mean
+        floor force over the interval [N] (the floor's stress, mean over the columns, times the
+        area).  A failed state raises :class:`bsrflow.numerics.solver.SimulationError` naming the
+        time and the cell."""
         s = self.setup
-        t, impulse = bed_advance(self.q, t0, t1, self.dim, self.dx, self.cfl, self.par, s.gravity, s.amplitude,
-                                 s.omega, moving, self.named["e_d"], self.work, self.counters, 10 ** 12)
+        chunk = max(1, self.STEP_CHUNK_CELL_STEPS // self.q[RHO].size)
+        t, impulse = float(t0), 0.0
+        while True:
+            t, imp = bed_advance(self.q, t, float(t1), self.dim, self.dx, self.cfl, self.par, s.gravity, s.amplitude,
+                                 s.omega, moving, self.named["e_d"], self.work, self.counters, chunk)
+            impulse += imp
+            if t >= t1 or self.counters[1]:
+                break
+        self.steps = int(self.counters[0])
+        self.t = t
         if self.counters[1]:
             from .solver import SimulationError
             what = {1: "a negative density", 2: "a non-finite value"}[int(self.counters[1])]
             idx = np.unravel_index(int(self.counters[2]), self.shape)
             raise SimulationError(f"the Eulerian bed failed at t = {t:.6g} s: {what} in cell {tuple(map(int, idx))} "
-                                  f"(height {self.z[idx[2]]:.4g} m)")
-        return impulse / (t1 - t0) * s.area if t1 > t0 else 0.0
+                                  f"(height {self.z[idx[2]]:.4g} m)", None, t, None, "stopped")
+        if t1 > t0:
+            self._floor_force[0] = impulse / (t1 - t0) * s.area
+        return self.last_floor_force if t1 > t0 else 0.0
+
+    @property
+    def last_floor_force(self) -> float:
+        """The floor's force on the bed [N], mean over the last advance (0 before any)."""
+        return float(self._floor_force[0])
+
+    # the controller's interface (bsrflow run) -------------------------------------------------
+    name = "granular_bed_eulerian"
+
+    def settle(self):
+        """``setup.settle`` s on the resting floor, from t = −settle to 0."""
+        if self.setup.settle > 0.0:
+            self.advance(-float(self.setup.settle), 0.0, moving=False)
+
+    @property
+    def grid(self):
+        """The output column of the setup (:meth:`~bsrflow.physics.granular_bed.BedSetup.grid`:
+        bins of d/10 up to ``output_top``)."""
+        if self._grid is None:
+            self._grid = self.setup.grid()
+        return self._grid
+
+    def tracer_positions(self):
+        """None: no tracers on this grid (yet)."""
+        return None
+
+    def observe(self):
+        """(u (1, nz) [m/s], ρ (nz) [kg/m]) on the output column: the bed's mass per metre of
+        height (summed over the box) and its mass-weighted vertical velocity, the cells' mass
+        spread evenly over their height."""
+        s = self.setup
+        g = self.grid
+        dz = self.dx[2]
+        cell_area = s.area / (self.q.shape[1] * self.q.shape[2])
+        mass = self.q[RHO].sum(axis=(0, 1)) * cell_area * dz           # per z-cell [kg]
+        mom = self.q[MZ].sum(axis=(0, 1)) * cell_area * dz
+        edges = g.lower[-1] + g.dx * np.arange(g.shape[0] + 1)
+        zf = np.arange(len(mass) + 1) * dz
+        lo = np.clip(zf[:-1, None], edges[None, :-1], edges[None, 1:])
+        hi = np.clip(zf[1:, None], edges[None, :-1], edges[None, 1:])
+        frac = (hi - lo) / dz
+        m_bin = (mass[:, None] * frac).sum(axis=0)
+        p_bin = (mom[:, None] * frac).sum(axis=0)
+        u = np.where(m_bin > 0.0, p_bin / np.where(m_bin > 0.0, m_bin, 1.0), 0.0)
+        return u[None, :], m_bin / g.dx
+
+    @property
+    def fields(self) -> dict:
+        """The named state (checkpoints): ``q`` (6, NX, NY, NZ), the conserved fields ρ, ρu_x,
+        ρu_y, ρu_z, (3/2)ρθ, ρδ_max (SI); ``floor_force`` (1) [N], the last advance's (written
+        with the snapshot at the checkpoint's time)."""
+        return {"q": self.q, "floor_force": self._floor_force}
+
+    def load_fields(self, fields):
+        """Restore :attr:`fields` (ValueError naming the first that is missing or of another shape)."""
+        for name, arr in self.fields.items():
+            v = fields.get(name)
+            if v is None or np.shape(v) != arr.shape:
+                raise ValueError(f"state field {name}: {'missing' if v is None else np.shape(v)}, expected "
+                                 f"{arr.shape}")
+        for name, arr in self.fields.items():
+            arr[...] = np.asarray(fields[name], dtype=float)
+
+    def output_schema(self) -> dict:
+        """The state written with every snapshot (``state_<name>``): the grid's fields with units,
+        on the dimensions ``grid_x``, ``grid_y``, ``grid_z`` (cell centres at (i + ½)Δ, the cell
+        sizes in the file's ``grid_cell_size_m``)."""
+        dims = ("grid_x", "grid_y", "grid_z")
+        return {"solid_fraction": (dims, "1", "solid fraction phi = rho / rho_s of the Eulerian cells"),
+                "velocity_x": (dims, "m s-1", "horizontal velocity u_x of the cells"),
+                "velocity_y": (dims, "m s-1", "horizontal velocity u_y of the cells (0 in 1-D and 2-D)"),
+                "velocity_z": (dims, "m s-1", "vertical velocity u_z of the cells relative to the floor"),
+                "theta": (dims, "m2 s-2", "granular temperature theta = <C^2>/3 of the cells"),
+                "delta_max": (dims, "m", "largest overlap per contact reached (the packing law's history)"),
+                "floor_force": ((), "N", "the floor's force on the bed, mean over the last advance")}
+
+    def output_fields(self) -> dict:
+        """The fields of :meth:`output_schema` now."""
+        q = self.q
+        r = q[RHO]
+        has = r > self.named["rho_tiny"]
+        safe = np.where(has, r, 1.0)
+        per = {"velocity_x": MX, "velocity_y": MY, "velocity_z": MZ}
+        out = {"solid_fraction": r / self.setup.density}
+        for k, c in per.items():
+            out[k] = np.where(has, q[c] / safe, 0.0)
+        out["theta"] = np.where(has, np.maximum(q[ENER] / (1.5 * safe), 0.0), 0.0)
+        out["delta_max"] = np.where(has, q[HIST] / safe, 0.0)
+        out["floor_force"] = np.float64(self.last_floor_force)
+        return out
 
     def mass_centre(self) -> float:
         """Height of the bed's mass centre above the floor [m]."""

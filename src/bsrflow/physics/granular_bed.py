@@ -48,7 +48,8 @@ Dropped: the −∇·u part of Lun et al.'s collisional loss (γ above is its θ
 and OpenFOAM), friction and rotation, anisotropy of θ, the Knudsen layer at the dilute top and at the
 floor (the kinetic relations are those of a dense, near-equilibrium gas), lateral structure (the
 bed is horizontally uniform: this is the 1-D limit of the 3-D bed, which a horizontally uniform
-3-D run equals).
+3-D run equals; :mod:`bsrflow.numerics.bed_eulerian` runs the same relations on a 1-, 2- or 3-D
+Eulerian grid).
 """
 
 from __future__ import annotations
@@ -63,7 +64,8 @@ from .packing_bed import MAX_STATIC_OVERLAP, MAX_STEPS      # the packing bed's 
 
 __all__ = ["BedSetup", "g0_cs", "kinetic_pressure", "bulk_viscosity", "shear_viscosity", "pressure_and_viscosity",
            "conductivity",
-           "dissipation", "wall_loss", "effective_restitution", "constitutive_numpy"]
+           "dissipation", "wall_loss", "effective_restitution", "constitutive_numpy", "EulerianBedSetup",
+           "check_eulerian_grid"]
 
 SQRT_PI = math.sqrt(math.pi)
 
@@ -281,6 +283,11 @@ class BedSetup:
         if self.output_height is not None and self.output_height <= self.rest_height:
             raise ValueError(f"output_height = {self.output_height!r} is outside the valid range at these settings, "
                              f"({self.rest_height:.4g}, 100] m: the bed at rest is {self.rest_height:.4g} m high")
+        self._check_steps()
+
+    def _check_steps(self):
+        """Refuse more than :data:`MAX_STEPS` time steps of the Lagrangian cells (naming ``n_cells``,
+        or ``cfl``)."""
         per_cell = self.rest_height / self.n_cells
         steps = (self.t_end + self.settle) * self.contact_wave_speed() / (self.cfl * per_cell)
         if steps > MAX_STEPS:
@@ -394,3 +401,61 @@ class BedSetup:
 
     def to_dict(self) -> dict:
         return asdict(self)
+
+
+MAX_CELLS_PER_D = 64
+MAX_LATERAL_CELLS = 256
+MAX_CELL_STEPS = 1e12
+"""The most cell-steps an Eulerian bed run may need (days at the measured 0.5-2 µs per cell-stage)."""
+
+
+def check_eulerian_grid(dim, cells_per_d, lateral_cells, perturbation, dim_name="dim") -> None:
+    """Refuse (ValueError, one line naming the field and its valid range) a grid of the Eulerian
+    bed (:mod:`bsrflow.numerics.bed_eulerian`) that is not one: ``dim`` in {1, 2, 3},
+    ``cells_per_d`` an integer in [1, 64], ``lateral_cells`` 1 for a column and an integer in
+    [2, 256] otherwise, ``perturbation`` in [0, 1) (0 for a column)."""
+    if isinstance(dim, bool) or dim not in (1, 2, 3):
+        raise ValueError(f"{dim_name} = {dim!r} is outside the valid range {{1, 2, 3}}")
+    if isinstance(cells_per_d, bool) or not isinstance(cells_per_d, (int, np.integer)) or not (
+            1 <= cells_per_d <= MAX_CELLS_PER_D):
+        raise ValueError(f"cells_per_d = {cells_per_d!r} is outside the valid range: integers in [1, {MAX_CELLS_PER_D}]")
+    lo, hi = (1, 1) if dim == 1 else (2, MAX_LATERAL_CELLS)
+    if isinstance(lateral_cells, bool) or not isinstance(lateral_cells, (int, np.integer)) or not (
+            lo <= lateral_cells <= hi):
+        raise ValueError(f"lateral_cells = {lateral_cells!r} is outside the valid range at {dim_name} = {dim}: "
+                         f"integers in [{lo}, {hi}]")
+    if (isinstance(perturbation, bool) or not isinstance(perturbation, (int, float)) or not math.isfinite(perturbation)
+            or not 0.0 <= perturbation < 1.0 or (dim == 1 and perturbation != 0.0)):
+        raise ValueError(f"perturbation = {perturbation!r} is outside the valid range at {dim_name} = {dim}: "
+                         + ("[0, 1)" if dim > 1 else "[0, 0] (a column has no lateral mode)"))
+
+
+@dataclass(frozen=True)
+class EulerianBedSetup(BedSetup):
+    """The bed of :class:`BedSetup` on the Eulerian grid of :mod:`bsrflow.numerics.bed_eulerian`
+    (``bsrflow run``'s ``kind = "granular_bed_eulerian"``): ``dimension`` 1 (a column), 2 (x, z)
+    or 3 (x, y, z); ``cells_per_d`` cells per diameter vertically; ``lateral_cells`` cells across
+    the box's side (periodic; 1 for a column); ``perturbation`` ε: the start's density times
+    1 + ε cos(2πx/L) (cos(2πy/L) in 3-D).  The grid reaches :attr:`output_top` (a lid there).
+    ``n_cells`` (the Lagrangian cells) is not used."""
+
+    dimension: int = 3
+    cells_per_d: int = 4
+    lateral_cells: int = 4
+    perturbation: float = 0.0
+
+    def __post_init__(self):
+        check_eulerian_grid(self.dimension, self.cells_per_d, self.lateral_cells, self.perturbation, "dimension")
+        super().__post_init__()
+
+    def _check_steps(self):
+        """Refuse more than :data:`MAX_CELL_STEPS` cell-steps or :data:`MAX_STEPS` steps of the grid
+        (naming ``cells_per_d``), in place of the Lagrangian cells' bound."""
+        dz = self.diameter / self.cells_per_d
+        nz = math.ceil(self.output_top / dz - 1e-9)
+        cells = nz * self.lateral_cells ** (self.dimension - 1)
+        steps = (self.t_end + self.settle) * self.contact_wave_speed() / (self.cfl * dz)
+        if cells * steps > MAX_CELL_STEPS or steps > MAX_STEPS:
+            raise ValueError(f"cells_per_d = {self.cells_per_d!r} is outside the valid range at these settings: the run "
+                             f"would take about {cells * steps:.2g} cell-steps ({cells} cells, {steps:.2g} steps; at most "
+                             f"{MAX_CELL_STEPS:.0e} and {MAX_STEPS:.0e}: fewer cells per d or across, fewer cycles)")

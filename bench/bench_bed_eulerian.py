@@ -1,0 +1,83 @@
+"""Cost of the vibrated bed's model on the Eulerian grid (bsrflow.numerics.bed_eulerian) per
+cell-stage, in 1-D and 3-D, against the Lagrangian column's step, all measured in this run.
+
+    python bench/bench_bed_eulerian.py [--json bench/results.json] [--lateral 4] [--cells-per-d 2]
+
+Each grid: the Γ = 3 bed (reference/liggghts_bed's) advanced from rest for ``--time`` seconds of
+vibration after a 20-ms warm-up that also compiles; the wall time per step, per cell-stage
+(three right-hand sides per step) and the ratio of the 3-D grid's cost per cell-stage to the
+column's (the horizontal axes' extra faces).  The Lagrangian column (200 cells, ``run_bed``'s
+loop) over the same simulated time gives the reference: the Eulerian grids' wall time over its.
+Writes the key ``bed_eulerian_step`` into the JSON file (merged with what is there).  Machine-
+dependent: wall times of this machine, serial (the kernels run on one thread), whatever else it
+is doing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+from _args import merge_json, output_json, positive_float, positive_int
+from bsrflow.numerics.bed_eulerian import EulerianBed
+from bsrflow.numerics.bed_lagrangian import GranularBedColumn
+from bsrflow.physics.granular_bed import BedSetup
+
+
+def _time_eulerian(setup, dim, cells_per_d, lateral, span):
+    bed = EulerianBed(setup, dim, cells_per_d, lateral, 0.05 if dim > 1 else 0.0)
+    bed.apply_velocity_jump(setup.amplitude * setup.omega)
+    bed.advance(0.0, 0.02)                               # warm-up (and compile)
+    s0 = int(bed.counters[0])
+    t0 = time.perf_counter()
+    bed.advance(0.02, 0.02 + span)
+    wall = time.perf_counter() - t0
+    steps = int(bed.counters[0]) - s0
+    cells = bed.q[0].size
+    return {"dim": dim, "cells_per_d": cells_per_d, "lateral_cells": lateral, "grid_shape": list(bed.shape),
+            "cells": cells, "steps": steps, "wall_s": wall, "us_per_step": 1e6 * wall / steps,
+            "ns_per_cell_stage": 1e9 * wall / (steps * 3 * cells)}
+
+
+def _time_lagrangian(setup, span):
+    col = GranularBedColumn(setup)
+    col.apply_velocity_jump(setup.amplitude * setup.omega)
+    col.advance(0.0, 0.02)
+    s0 = col.steps
+    t0 = time.perf_counter()
+    col.advance(0.02, 0.02 + span)
+    wall = time.perf_counter() - t0
+    return {"cells": setup.n_cells, "steps": col.steps - s0, "wall_s": wall}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--json", type=output_json, default="bench/results.json")
+    ap.add_argument("--cells-per-d", type=positive_int, default=2, help="vertical cells per diameter (default 2)")
+    ap.add_argument("--lateral", type=positive_int, default=4, help="3-D: cells across the box (default 4, >= 2)")
+    ap.add_argument("--time", type=positive_float, default=0.02, help="simulated seconds timed (default 0.02)")
+    args = ap.parse_args(argv)
+    if args.lateral < 2:
+        ap.error(f"--lateral {args.lateral} is outside the valid range [2, 256]")
+    if args.cells_per_d > 64:
+        ap.error(f"--cells-per-d {args.cells_per_d} is outside the valid range [1, 64]")
+    setup = BedSetup(gamma=3.0)
+    lag = _time_lagrangian(setup, args.time)
+    col = _time_eulerian(setup, 1, args.cells_per_d, 1, args.time)
+    bed = _time_eulerian(setup, 3, args.cells_per_d, args.lateral, args.time)
+    out = {"simulated_s": args.time, "lagrangian": lag, "eulerian_1d": col, "eulerian_3d": bed,
+           "ratio_3d_to_1d_per_cell_stage": bed["ns_per_cell_stage"] / col["ns_per_cell_stage"],
+           "ratio_1d_to_lagrangian_wall": col["wall_s"] / lag["wall_s"],
+           "ratio_3d_to_lagrangian_wall": bed["wall_s"] / lag["wall_s"],
+           "note": "serial; machine-dependent (this machine, this run)"}
+    print(f"Lagrangian column ({lag['cells']} cells): {lag['wall_s']:.3f} s for {args.time:g} s ({lag['steps']} steps)")
+    for name, r in (("Eulerian 1-D", col), ("Eulerian 3-D", bed)):
+        print(f"{name} {tuple(r['grid_shape'])}: {r['wall_s']:.3f} s, {r['steps']} steps, {r['us_per_step']:.1f} us per "
+              f"step, {r['ns_per_cell_stage']:.0f} ns per cell-stage")
+    print(f"3-D / 1-D per cell-stage: {out['ratio_3d_to_1d_per_cell_stage']:.2f}; wall against the Lagrangian column: "
+          f"1-D {out['ratio_1d_to_lagrangian_wall']:.1f}x, 3-D {out['ratio_3d_to_lagrangian_wall']:.1f}x")
+    merge_json(args.json, "bed_eulerian_step", out)
+
+
+if __name__ == "__main__":
+    main()
