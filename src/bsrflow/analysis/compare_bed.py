@@ -831,8 +831,12 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
     if eulerian is not None:
         out["eulerian_cases"] = []
         for case in cases:
-            got = eulerian_case(base.with_(gamma=case["gamma"]), case, runs[case["gamma"]], progress=progress,
-                                **eulerian)
+            try:
+                got = eulerian_case(base.with_(gamma=case["gamma"]), case, runs[case["gamma"]], progress=progress,
+                                    **eulerian)
+            except (KeyboardInterrupt, SimulationError) as exc:
+                exc.partial = out                    # every run so far, with the finished Eulerian cases
+                raise
             out["eulerian_cases"].append(got)
             if log:
                 across = "" if got["dim"] == 1 else f", {got['lateral_cells']} across"
@@ -851,7 +855,8 @@ EULERIAN_NOTE = (
     "bsrflow.numerics.bed_eulerian (1-D column, or a 2-D / 3-D bed with periodic sides, perturbed laterally by "
     "'perturbation' at the start), against LIGGGHTS (as the main cases) and against the main cases' Lagrangian run: "
     "a second discretisation of one model; lateral_spread_max_over_d is the largest standard deviation of the "
-    "columns' mass centres over the run (0 for a horizontally uniform bed)")
+    "columns' mass centres over the run (0 for a horizontally uniform bed), lateral_spread_max_per_cycle_over_d "
+    "the same per cycle")
 
 
 def eulerian_case(setup: BedSetup, case: dict, lagrangian, dim=1, cells_per_d=4, lateral_cells=1, perturbation=0.0,
@@ -877,6 +882,9 @@ def eulerian_case(setup: BedSetup, case: dict, lagrangian, dim=1, cells_per_d=4,
                (r["mass_centre"][_rms_window(r["t"], s.period)]
                 - np.interp(r["t"][_rms_window(r["t"], s.period)], res.t, res.mass_centre)) ** 2)) / s.diameter),
            "lateral_spread_max_over_d": float(r["lateral_spread"].max() / s.diameter),
+           "lateral_spread_max_per_cycle_over_d": [
+               float(r["lateral_spread"][(r["t"] >= c * s.period - 1e-12) & (r["t"] <= (c + 1) * s.period + 1e-12)].max()
+                     / s.diameter) for c in range(s.cycles)],
            "mass_error": r["mass_error"], "steps": r["steps"], "wall_time_s": r["wall_time_s"]}
     if "dem_flight_time_s" in case and traj is not None:
         out.update({"dem_flight_time_s": case["dem_flight_time_s"],
@@ -1432,18 +1440,22 @@ def _main(args) -> int:
     if args.eulerian is not None:
         eulerian = {"dim": args.eulerian,
                     "cells_per_d": 4 if args.eulerian_cells_per_d is None else args.eulerian_cells_per_d,
-                    "lateral_cells": 1 if args.eulerian == 1 else (args.eulerian_lateral_cells or 4),
+                    "lateral_cells": (1 if args.eulerian == 1 else 4 if args.eulerian_lateral_cells is None
+                                      else args.eulerian_lateral_cells),
                     "perturbation": 0.0 if args.eulerian_perturbation is None else args.eulerian_perturbation}
-        from ..numerics.bed_eulerian import EulerianBed
-        try:
-            EulerianBed(reference_bed(ref)[2], **eulerian)
+        from ..physics.granular_bed import EulerianBedSetup
+        try:                       # the grid's options and its cost, for the longest case run (nothing allocated)
+            base = reference_bed(ref)[2]
+            EulerianBedSetup(**{**base.to_dict(), "gamma": max(args.gammas or known)}, dimension=eulerian["dim"],
+                             cells_per_d=eulerian["cells_per_d"], lateral_cells=eulerian["lateral_cells"],
+                             perturbation=eulerian["perturbation"])
         except ValueError as exc:
             msg = str(exc)
             for k, v in (("cells_per_d", "--eulerian-cells-per-d"), ("lateral_cells", "--eulerian-lateral-cells"),
-                         ("perturbation", "--eulerian-perturbation")):
+                         ("perturbation", "--eulerian-perturbation"), ("dimension", "--eulerian")):
                 if msg.startswith(k + " = "):
                     msg = v + " " + msg[len(k) + 3:]
-            raise ValueError(msg) from None
+            raise ValueError(msg.replace("at dimension = ", "at --eulerian ")) from None
     if args.figures is not None:                     # created only once everything else is checked
         check_output_dir(args.figures, "--figures", create=True)
     t0 = time.perf_counter()

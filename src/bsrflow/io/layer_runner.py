@@ -453,8 +453,9 @@ _RANGES["granular_bed_eulerian"] = {**{k: v for k, v in _RANGES["granular_bed"].
                                     "dimension": _Range(1, 3, integer=True),
                                     "cells_per_d": _Range(1, 64, integer=True),
                                     "lateral_cells": _Range(1, 256, integer=True,
-                                                            note="(1 for a column, at least 2 in 2-D / 3-D)"),
-                                    "perturbation": _Range(0, 1, hi_open=True, note="(0 for a column)")}
+                                                            note="(1 for a column, at least 2 in 2-D / 3-D; "
+                                                                 "not given: 1 for a column, else 4)"),
+                                    "perturbation": _Range(0, 0.05, note="(0 for a column)")}
 _NOT_OPTIONS = {"granular_bed_eulerian": ("n_cells",)}
 """Fields of a kind's class that its config does not take (the Eulerian bed has no Lagrangian cells)."""
 """Each kind's fields' valid ranges, as its one-line errors state them (the scenario classes check

@@ -37,9 +37,10 @@ Boundaries: periodic sides; the floor (mirror ghosts: u_z odd), which pushes but
 face's normal momentum flux, the HLLE flux minus the viscous stress, is ≥ 0; that flux times the
 area is the floor force), with no heat flux but the collisions' loss (1 − e_w)p√(2θ/π) out of the
 bottom cells (:func:`bsrflow.physics.granular_bed.wall_loss`), no shear stress (free slip);
-a lid at the domain top (mirror ghosts, no stress and no heat flux there).  Time step: cfl Δx
-over the contact wave speed bound plus max(Σ|u_a| + c_k), and half the explicit diffusion limits
-Δx²/(4nD), D = (λ + 4μ/3)/ρ and κ/((3/2)ρ).
+a lid at the domain top (mirror ghosts, no stress and no heat flux there).  Time step
+(:func:`bed_stable_dt`, over the axes along which the state varies): the unsplit CFL bound
+cfl / max Σ_a (c + c_k + |u_a|)/Δx_a, and half the explicit limits of the conduction and the
+viscous stress with the face coefficients the operator uses.
 
 A horizontally uniform state evolves exactly as the column (dim 1): every horizontal face of a
 uniform line computes the same numbers, so their differences are exact zeros, and the vertical
@@ -384,65 +385,94 @@ def bed_post_step(q, dt, d, m, rho_s, e_d, rho_tiny):
 
 
 @numba.njit(cache=True)
-def bed_stable_dt(q, dim, dx, cfl, par):
-    """(Δt bound [s], status, where): module docstring; status 1 at a negative density, 2 at a
-    non-finite value (the first such cell, flat index)."""
+def _varies(q, axis):
+    """True if any field differs between neighbouring cells along horizontal ``axis`` (0, 1)."""
+    _, NX, NY, NZ = q.shape
+    for i in range(NX):
+        for j in range(NY):
+            i0, j0 = (i - 1) % NX, j
+            if axis == 1:
+                i0, j0 = i, (j - 1) % NY
+            for k in range(NZ):
+                for c in range(N_FIELDS):
+                    if q[c, i, j, k] != q[c, i0, j0, k]:
+                        return True
+    return False
+
+
+@numba.njit(cache=True)
+def bed_stable_dt(q, dim, dx, cfl, par, w, co):
+    """(Δt bound [s], status, where); status 1 at a negative density, 2 at a non-finite value
+    (the first such cell, flat index).  w, co: work arrays of :func:`bed_rhs` (overwritten).
+
+    The bound counts the axes along which the state varies (z always; x and y where some
+    neighbouring cells differ: along a uniform axis every flux difference is an exact zero, so a
+    horizontally uniform bed takes the column's steps):
+
+    * the unsplit scheme's CFL: Δt ≤ cfl / max over the cells of Σ_a (c + c_k + |u_a|)/Δx_a, c the
+      contact wave speed bound, c_k the kinetic sound speed;
+    * half the explicit limits of the conduction and the viscous stress with the face
+      coefficients the operator uses (the mean of the two cells', none below φ_min; the floor's
+      face viscous, not conducting; the lid's neither): Δt ≤ ½ (3/2)ρ_i / Σ_f κ_f/Δx_f² and
+      Δt ≤ ½ ρ_i / Σ_f ζ_f/Δx_f² over each cell's faces f, ζ = λ + 4μ/3."""
     _, NX, NY, NZ = q.shape
     c_cap, rho_tiny, e, rho_s, phi_min, d = par[4], par[5], par[6], par[7], par[8], par[0]
-    smax = np.zeros(NX)
-    dmax = np.zeros(NX)
-    bad = np.zeros(NX, np.int64)
-    where = np.full(NX, -1, np.int64)
+    status, where = 0, -1
     for i in range(NX):
         for j in range(NY):
             for k in range(NZ):
-                r = q[RHO, i, j, k]
-                ok = True
                 for c in range(N_FIELDS):
                     if not math.isfinite(q[c, i, j, k]):
-                        ok = False
-                if not ok:
-                    if bad[i] != 2:
-                        bad[i], where[i] = 2, (i * NY + j) * NZ + k
+                        return 0.0, 2, (i * NY + j) * NZ + k
+                if q[RHO, i, j, k] < 0.0 and status == 0:
+                    status, where = 1, (i * NY + j) * NZ + k
+    if status:
+        return 0.0, status, where
+    _cell_pass(q, w, co, rho_tiny, rho_s, d, e, phi_min)
+    vx = dim >= 2 and _varies(q, 0)
+    vy = dim == 3 and _varies(q, 1)
+    rate = 0.0                     # max Σ_a (c + c_k + |u_a|)/Δx_a [1/s]
+    dt_diff = math.inf
+    for i in range(NX):
+        for j in range(NY):
+            for k in range(NZ):
+                r = w[0, i, j, k]
+                if not r > 0.0:
                     continue
-                if r < 0.0:
-                    if bad[i] == 0:
-                        bad[i], where[i] = 1, (i * NY + j) * NZ + k
+                ck = kinetic_sound_speed(r / rho_s, w[4, i, j, k], e)
+                rt = (c_cap + ck + abs(w[3, i, j, k])) / dx[2]
+                if vx:
+                    rt += (c_cap + ck + abs(w[1, i, j, k])) / dx[0]
+                if vy:
+                    rt += (c_cap + ck + abs(w[2, i, j, k])) / dx[1]
+                rate = max(rate, rt)
+                mu0 = co[0, i, j, k]
+                if not mu0 > 0.0:
                     continue
-                if not r > rho_tiny:
-                    continue
-                th = max(q[ENER, i, j, k] / (1.5 * r), 0.0)
-                phi = r / rho_s
-                s = (abs(q[MX, i, j, k]) + abs(q[MY, i, j, k]) + abs(q[MZ, i, j, k])) / r
-                s += kinetic_sound_speed(phi, th, e)
-                smax[i] = max(smax[i], s)
-                if phi >= phi_min:
-                    g = g0_cs(phi)
-                    st = math.sqrt(th)
-                    ope = 1.0 + e
-                    coll = rho_s * d * phi * phi * g * ope * st / SQRT_PI
-                    mu = 10.0 * rho_s * d * st * SQRT_PI / (96.0 * ope * g) * (1.0 + 0.8 * ope * phi * g) ** 2 + 0.8 * coll
-                    zeta = (4.0 / 3.0) * coll + (4.0 / 3.0) * mu
-                    kap = (150.0 * rho_s * d * st * SQRT_PI / (384.0 * ope * g) * (1.0 + 1.2 * ope * phi * g) ** 2
-                           + 2.0 * coll)
-                    dmax[i] = max(dmax[i], max(zeta / r, kap / (1.5 * r)))
-    for st in (2, 1):
-        for i in range(NX):
-            if bad[i] == st:
-                return 0.0, st, where[i]
-    h = dx[2]
-    s2 = 1.0 / (dx[2] * dx[2])
-    if dim >= 2:
-        h = min(h, dx[0])
-        s2 += 1.0 / (dx[0] * dx[0])
-    if dim == 3:
-        h = min(h, dx[1])
-        s2 += 1.0 / (dx[1] * dx[1])
-    dt = cfl * h / (c_cap + smax.max())
-    D = dmax.max()
-    if D > 0.0:
-        dt = min(dt, 1.0 / (4.0 * D * s2))
-    return dt, 0, -1
+                z0 = co[1, i, j, k] + (4.0 / 3.0) * mu0
+                k0 = co[2, i, j, k]
+                sz = 0.0
+                sk = 0.0
+                for a in range(3):
+                    if (a == 0 and not vx) or (a == 1 and not vy):
+                        continue
+                    inv2 = 1.0 / (dx[a] * dx[a])
+                    for side in (-1, 1):
+                        ii, jj, kk = _cell_index(a, i, j, k, side)
+                        if a == 2 and kk == NZ:          # the lid: no stress, no heat flux
+                            continue
+                        mun = _at(co, 0, ii, jj, kk, NX, NY, NZ, 1.0)
+                        if not mun > 0.0:
+                            continue
+                        sz += 0.5 * (z0 + _at(co, 1, ii, jj, kk, NX, NY, NZ, 1.0) + (4.0 / 3.0) * mun) * inv2
+                        if not (a == 2 and kk == -1):    # the floor conducts no heat
+                            sk += 0.5 * (k0 + _at(co, 2, ii, jj, kk, NX, NY, NZ, 1.0)) * inv2
+                if sz > 0.0:
+                    dt_diff = min(dt_diff, 0.5 * r / sz)
+                if sk > 0.0:
+                    dt_diff = min(dt_diff, 0.5 * 1.5 * r / sk)
+    dt = cfl / rate if rate > 0.0 else cfl * dx[2] / c_cap
+    return min(dt, dt_diff), 0, -1
 
 
 @numba.njit(cache=True)
@@ -455,6 +485,17 @@ def _combine(q, q1, dq, dt, a, b):
 
 @numba.njit(cache=True)
 def _floor_mean(floor):
+    """The columns' mean floor stress: the common value itself when every column has it (so a
+    horizontally uniform bed gives the column's number bit for bit), else their sum over their
+    number."""
+    f0 = floor[0, 0]
+    same = True
+    for i in range(floor.shape[0]):
+        for j in range(floor.shape[1]):
+            if floor[i, j] != f0:
+                same = False
+    if same:
+        return f0
     s = 0.0
     for i in range(floor.shape[0]):
         for j in range(floor.shape[1]):
@@ -475,7 +516,7 @@ def bed_advance(q, t, t_stop, dim, dx, cfl, par, gravity, amp, omega, moving, e_
     impulse = 0.0
     n = 0
     while t < t_stop and n < max_steps:
-        dt, status, where = bed_stable_dt(q, dim, dx, cfl, par)
+        dt, status, where = bed_stable_dt(q, dim, dx, cfl, par, w, co)
         if status:
             counters[1], counters[2] = status, where
             return t, impulse
@@ -535,7 +576,8 @@ class EulerianBed:
     diameter vertically; ``lateral_cells`` cells across the box's side L (periodic), so the
     horizontal cells are L/lateral_cells wide; the domain reaches the setup's
     :attr:`~bsrflow.physics.granular_bed.BedSetup.output_top` (by default the energy bound's
-    height; a lid there).  For ``bsrflow run`` (``kind = "granular_bed_eulerian"``) it is the
+    height; the lid at the last whole cell below it, so that the output column holds all the
+    mass).  For ``bsrflow run`` (``kind = "granular_bed_eulerian"``) it is the
     controller's discretisation, as :class:`bsrflow.numerics.bed_lagrangian.GranularBedColumn`:
     :meth:`observe` gives the column of d/10 bins of the setup's output grid (the bed's mass per
     metre of height and its mean vertical velocity), :attr:`fields` the conserved state for
@@ -544,7 +586,8 @@ class EulerianBed:
     The bed starts at rest as :func:`bsrflow.numerics.bed_lagrangian.static_bed`'s (its
     cumulative mass per area, cell-averaged; δ_max its overlap), θ = θ_seed; ``perturbation`` ε
     multiplies the density by 1 + ε cos(2πx/L) (times cos(2πy/L) in 3-D) with x (y) the cells'
-    lower edges, which keeps the mass (Σ_i cos(2πi/n) = 0) and is not 0 on two cells.
+    lower edges, which keeps the mass (Σ_i cos(2πi/n) = 0) and is not 0 on two cells; ε at most
+    :data:`~bsrflow.physics.granular_bed.MAX_PERTURBATION`.
     In 2-D the fields are those of a bed uniform in y (per unit depth: the 3-D values)."""
 
     def __init__(self, setup, dim=1, cells_per_d=4, lateral_cells=1, perturbation=0.0, cfl=None):
@@ -564,7 +607,7 @@ class EulerianBed:
         dz = s.diameter / cells_per_d
         dh = s.side / lateral_cells
         self.dx = np.array([dh, dh, dz])
-        nz = int(math.ceil(s.output_top / dz - 1e-9))
+        nz = int(math.floor(s.output_top / dz + 1e-9))          # the lid at or below output_top
         nx = lateral_cells
         ny = lateral_cells if dim == 3 else 1
         self.z = (np.arange(nz) + 0.5) * dz

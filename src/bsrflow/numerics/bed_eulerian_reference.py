@@ -269,22 +269,52 @@ def post_step_numpy(q, dt, par):
     return q
 
 
+def _varies_numpy(q, axis):
+    return bool(np.any(q != np.roll(q, 1, axis=1 + axis)))
+
+
 def stable_dt_numpy(q, dim, dx, par):
-    """Δt: cfl Δx over the fastest signal (the contact wave speed bound plus Σ|u_a| plus the
-    kinetic sound speed), and half the explicit limits of the viscous stress and the conduction,
-    Δx²/(4·dim·D) with D = (λ + 4μ/3)/ρ and κ/((3/2)ρ) over the cells with φ ≥ ``phi_min``."""
+    """Δt (:func:`bsrflow.numerics.bed_eulerian.bed_stable_dt`'s rules): over the axes along which
+    the state varies (z, and x / y where neighbouring cells differ), cfl / max Σ_a (c + c_k +
+    |u_a|)/Δx_a, and half the explicit limits of the conduction and the viscous stress with the
+    operator's face coefficients (the mean of the two cells', none below φ_min; the floor's face
+    viscous only, the lid's neither)."""
     prim = primitives_numpy(q, par["rho_tiny"])
     r, u, th, h = prim
-    speed = np.abs(u[0]) + np.abs(u[1]) + np.abs(u[2]) + kinetic_sound_speed_numpy(r / par["rho_s"], th, par["e"])
-    active = [2] + list(range(dim - 1))
-    dt = par["cfl"] * min(dx[a] for a in active) / (par["c_cap"] + float(speed.max()))
+    axes = [2] + [a for a in range(dim - 1) if _varies_numpy(q, a)]
+    has = r > 0.0
+    ck = kinetic_sound_speed_numpy(r / par["rho_s"], th, par["e"])
+    rate = sum((par["c_cap"] + ck + np.abs(u[a])) / dx[a] for a in axes)
+    rate = float(np.max(np.where(has, rate, 0.0)))
+    dt = par["cfl"] / rate if rate > 0.0 else par["cfl"] * dx[2] / par["c_cap"]
     coef = transport_numpy(prim, par)
-    safe = np.where(r > par["rho_tiny"], r, 1.0)
-    D = np.maximum((coef["lambda"] + (4.0 / 3.0) * coef["mu"]) / safe, coef["kappa"] / (1.5 * safe))
-    Dmax = float(D.max())
-    if Dmax > 0.0:
-        dt = min(dt, 1.0 / (4.0 * Dmax * sum(1.0 / dx[a] ** 2 for a in active)))
-    return dt
+    zeta = coef["lambda"] + (4.0 / 3.0) * coef["mu"]
+    on = coef["mu"] > 0.0
+    sz = np.zeros_like(r)
+    sk = np.zeros_like(r)
+    for a in axes:
+        for side in (-1, 1):
+            kind = _axis_kind(a)
+            mv = lambda x: np.moveaxis(x, a, -1)                                   # noqa: E731
+            n = mv(r).shape[-1]
+            nb_on = _pad(mv(on.astype(float)), kind)[..., 2 + side:n + 2 + side] > 0.0
+            nb_z = _pad(mv(zeta), kind)[..., 2 + side:n + 2 + side]
+            nb_k = _pad(mv(coef["kappa"]), kind)[..., 2 + side:n + 2 + side]
+            both = mv(on) & nb_on
+            fz = np.where(both, 0.5 * (mv(zeta) + nb_z), 0.0)
+            fk = np.where(both, 0.5 * (mv(coef["kappa"]) + nb_k), 0.0)
+            if kind == "wall":
+                if side == 1:                     # the lid: neither
+                    fz[..., -1] = 0.0
+                    fk[..., -1] = 0.0
+                else:                             # the floor: viscous only
+                    fk[..., 0] = 0.0
+            sz += np.moveaxis(fz, -1, a) / dx[a] ** 2
+            sk += np.moveaxis(fk, -1, a) / dx[a] ** 2
+    with np.errstate(divide="ignore"):
+        lim = np.minimum(np.where(sz > 0.0, 0.5 * r / np.where(sz > 0, sz, 1.0), np.inf),
+                         np.where(sk > 0.0, 0.75 * r / np.where(sk > 0, sk, 1.0), np.inf))
+    return min(dt, float(lim.min()))
 
 
 def make_params(setup, dx, cfl=0.4, phi_min=1e-3, rho_tiny_rel=1e-12):

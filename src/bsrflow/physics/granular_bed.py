@@ -407,13 +407,16 @@ MAX_CELLS_PER_D = 64
 MAX_LATERAL_CELLS = 256
 MAX_CELL_STEPS = 1e12
 """The most cell-steps an Eulerian bed run may need (days at the measured 0.5-2 µs per cell-stage)."""
+MAX_PERTURBATION = 0.05
+"""The largest lateral density mode at the start: φ_c(1 + ε) overlaps the contacts by
+d ε/(1 + ε), at most :data:`MAX_STATIC_OVERLAP` d (the contact law's small-overlap limit)."""
 
 
 def check_eulerian_grid(dim, cells_per_d, lateral_cells, perturbation, dim_name="dim") -> None:
     """Refuse (ValueError, one line naming the field and its valid range) a grid of the Eulerian
     bed (:mod:`bsrflow.numerics.bed_eulerian`) that is not one: ``dim`` in {1, 2, 3},
     ``cells_per_d`` an integer in [1, 64], ``lateral_cells`` 1 for a column and an integer in
-    [2, 256] otherwise, ``perturbation`` in [0, 1) (0 for a column)."""
+    [2, 256] otherwise, ``perturbation`` in [0, :data:`MAX_PERTURBATION`] (0 for a column)."""
     if isinstance(dim, bool) or dim not in (1, 2, 3):
         raise ValueError(f"{dim_name} = {dim!r} is outside the valid range {{1, 2, 3}}")
     if isinstance(cells_per_d, bool) or not isinstance(cells_per_d, (int, np.integer)) or not (
@@ -425,9 +428,10 @@ def check_eulerian_grid(dim, cells_per_d, lateral_cells, perturbation, dim_name=
         raise ValueError(f"lateral_cells = {lateral_cells!r} is outside the valid range at {dim_name} = {dim}: "
                          f"integers in [{lo}, {hi}]")
     if (isinstance(perturbation, bool) or not isinstance(perturbation, (int, float)) or not math.isfinite(perturbation)
-            or not 0.0 <= perturbation < 1.0 or (dim == 1 and perturbation != 0.0)):
+            or not 0.0 <= perturbation <= MAX_PERTURBATION or (dim == 1 and perturbation != 0.0)):
         raise ValueError(f"perturbation = {perturbation!r} is outside the valid range at {dim_name} = {dim}: "
-                         + ("[0, 1)" if dim > 1 else "[0, 0] (a column has no lateral mode)"))
+                         + (f"[0, {MAX_PERTURBATION:g}] (the contact law's small-overlap limit at the start)"
+                            if dim > 1 else "[0, 0] (a column has no lateral mode)"))
 
 
 @dataclass(frozen=True)
@@ -435,26 +439,36 @@ class EulerianBedSetup(BedSetup):
     """The bed of :class:`BedSetup` on the Eulerian grid of :mod:`bsrflow.numerics.bed_eulerian`
     (``bsrflow run``'s ``kind = "granular_bed_eulerian"``): ``dimension`` 1 (a column), 2 (x, z)
     or 3 (x, y, z); ``cells_per_d`` cells per diameter vertically; ``lateral_cells`` cells across
-    the box's side (periodic; 1 for a column); ``perturbation`` ε: the start's density times
-    1 + ε cos(2πx/L) (cos(2πy/L) in 3-D).  The grid reaches :attr:`output_top` (a lid there).
+    the box's side (periodic; not given: 1 for a column, 4 otherwise); ``perturbation`` ε: the
+    start's density times 1 + ε cos(2πx/L) (cos(2πy/L) in 3-D).  The grid's lid is at the whole
+    number of cells at or below :attr:`output_top`, so the file's column holds all the mass.
     ``n_cells`` (the Lagrangian cells) is not used."""
 
     dimension: int = 3
     cells_per_d: int = 4
-    lateral_cells: int = 4
+    lateral_cells: int | None = None
     perturbation: float = 0.0
 
     def __post_init__(self):
+        if self.lateral_cells is None and self.dimension in (1, 2, 3) and not isinstance(self.dimension, bool):
+            object.__setattr__(self, "lateral_cells", 1 if self.dimension == 1 else 4)
         check_eulerian_grid(self.dimension, self.cells_per_d, self.lateral_cells, self.perturbation, "dimension")
         super().__post_init__()
+        dz = self.diameter / self.cells_per_d
+        top = math.floor(self.output_top / dz + 1e-9) * dz
+        if top < self.rest_height + dz:
+            raise ValueError(f"output_height = {self.output_height!r} is outside the valid range at these settings, "
+                             f"[{self.rest_height + 2 * dz:.4g}, 100] m: the grid of whole cells below it would end "
+                             f"at {top:.4g} m, the bed at rest is {self.rest_height:.4g} m high")
 
     def _check_steps(self):
         """Refuse more than :data:`MAX_CELL_STEPS` cell-steps or :data:`MAX_STEPS` steps of the grid
         (naming ``cells_per_d``), in place of the Lagrangian cells' bound."""
         dz = self.diameter / self.cells_per_d
-        nz = math.ceil(self.output_top / dz - 1e-9)
+        nz = math.floor(self.output_top / dz + 1e-9)
         cells = nz * self.lateral_cells ** (self.dimension - 1)
-        steps = (self.t_end + self.settle) * self.contact_wave_speed() / (self.cfl * dz)
+        per_step = 1.0 / dz + (self.dimension - 1) * self.lateral_cells / self.side      # Σ_a 1/Δx_a
+        steps = (self.t_end + self.settle) * self.contact_wave_speed() * per_step / self.cfl
         if cells * steps > MAX_CELL_STEPS or steps > MAX_STEPS:
             raise ValueError(f"cells_per_d = {self.cells_per_d!r} is outside the valid range at these settings: the run "
                              f"would take about {cells * steps:.2g} cell-steps ({cells} cells, {steps:.2g} steps; at most "
