@@ -24,7 +24,8 @@ Scheme (one axis at a time, summed, unsplit; SSP-RK3):
 * viscous stress and conduction at the faces: the face-normal derivatives by differences, the
   tangential ones the mean of the two cells' centred differences; face coefficients the mean of
   the two cells', none where either cell is below φ_min = 10⁻³ (mean free path above 40 d: no
-  continuum there; the explicit diffusion limits would otherwise fall as φ);
+  continuum there; the explicit diffusion limits would otherwise fall as φ) or has θ = 0 (its
+  coefficients are 0);
 * the work −p∇·u with ∇·u from the face velocities (the mean of the two face states', the
   material's own at a vacuum face, 0 at floor and lid), the viscous heating τ:∇u as the mean of
   the row of the face-normal derivatives over each axis's two faces (so that a horizontally
