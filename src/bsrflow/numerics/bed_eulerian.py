@@ -57,7 +57,7 @@ import numba
 import numpy as np
 
 from ..physics.granular_bed import g0_cs
-from ..physics.packing import history_update, packing_force, packing_wave_speed
+from ..physics.packing import history_update
 from . import packing_kernels as pk
 
 __all__ = ["EulerianBed", "run_eulerian_bed", "bed_rhs", "bed_post_step", "bed_stable_dt", "bed_advance",
@@ -217,28 +217,16 @@ def _face(w, co, G, axis, i, j, k, NX, NY, NZ, dx, par, out, sc):
     thR = 0.0 if vacR else th4[2] - hs * pk._minmod(th4[2] - th4[1], th4[3] - th4[2])
     hL = 0.0 if vacL else h4[1] + hs * pk._minmod(h4[1] - h4[0], h4[2] - h4[1])
     hR = 0.0 if vacR else h4[2] - hs * pk._minmod(h4[2] - h4[1], h4[3] - h4[2])
-    uL, uR = uLa[axis], uRa[axis]
-    pL = packing_force(d - m / rL, hL, k1, k2) if rL > rho_tiny else 0.0
-    pR = packing_force(d - m / rR, hR, k1, k2) if rR > rho_tiny else 0.0
-    cL = packing_wave_speed(rL, d, m, k2)
-    cR = packing_wave_speed(rR, d, m, k2)
-    sl, sr = math.sqrt(rL), math.sqrt(rR)
-    uh = (sl * uL + sr * uR) / (sl + sr) if sl + sr > 0.0 else 0.0
-    dr = rR - rL
-    if abs(dr) > 1e-12 * (rL + rR):
-        c2 = (pR - pL) / dr
-        ch = math.sqrt(c2) if c2 > 0.0 else 0.0
-    else:
-        ch = max(cL, cR)
-    ch = min(ch, c_cap)
+    # the packing's HLLE bounds (the n-D packing scheme's), widened below by the kinetic sound speed
+    SLp, SRp, uL, uR, pL, pR = pk.hlle_waves(rL, uLa[axis], hL, rR, uRa[axis], hR, d, m, k1, k2, c_cap, rho_tiny)
     phL, phR = rL / rho_s, rR / rho_s
     kL = rL * thL * (1.0 + 2.0 * (1.0 + e) * phL * g0_cs(phL))
     kR = rR * thR * (1.0 + 2.0 * (1.0 + e) * phR * g0_cs(phR))
     ckL = kinetic_sound_speed(phL, thL, e)
     ckR = kinetic_sound_speed(phR, thR, e)
     ck = max(ckL, ckR)
-    SL = min(min(uL - cL, uh - ch) - ck, uL - ckL)
-    SR = max(max(uR + cR, uh + ch) + ck, uR + ckR)
+    SL = min(SLp - ck, uL - ckL)
+    SR = max(SRp + ck, uR + ckR)
     PL, PR = pL + kL, pR + kR
     f_mass = pk.hlle_combine(SL, SR, rL * uL, rR * uR, rL, rR)
     f_mom = pk.hlle_combine(SL, SR, rL * uL * uL + PL, rR * uR * uR + PR, rL * uL, rR * uR)
@@ -733,13 +721,8 @@ class EulerianBed:
 
     def load_fields(self, fields):
         """Restore :attr:`fields` (ValueError naming the first that is missing or of another shape)."""
-        for name, arr in self.fields.items():
-            v = fields.get(name)
-            if v is None or np.shape(v) != arr.shape:
-                raise ValueError(f"state field {name}: {'missing' if v is None else np.shape(v)}, expected "
-                                 f"{arr.shape}")
-        for name, arr in self.fields.items():
-            arr[...] = np.asarray(fields[name], dtype=float)
+        from .bed_lagrangian import restore_named_fields
+        restore_named_fields(self.fields, fields)
 
     def output_schema(self) -> dict:
         """The state written with every snapshot (``state_<name>``): the grid's fields with units,

@@ -343,6 +343,18 @@ def _compile_bed():
         False, c, 0.4, 10.0, 0.9, 0.9, 10)
 
 
+def restore_named_fields(target: dict, fields: dict) -> None:
+    """Copy the checkpoint's ``fields`` into the arrays of ``target`` (a discretisation's named
+    state), all or none: ValueError naming the first that is missing or of another shape."""
+    for name, arr in target.items():
+        v = fields.get(name)
+        if v is None or np.shape(v) != arr.shape:
+            raise ValueError(f"state field {name}: {'missing' if v is None else np.shape(v)}, expected "
+                             f"{arr.shape}")
+    for name, arr in target.items():
+        arr[...] = np.asarray(fields[name], dtype=float)
+
+
 def static_bed(setup):
     """The bed at rest on the resting floor (faces [m], δ_max [m] per cell): cell j carries the
     weight above its middle, σ_j = (n − j − ½) μ g, on the packing law's loading branch
@@ -487,13 +499,7 @@ class GranularBedColumn:
 
     def load_fields(self, fields):
         """Restore :attr:`fields` (ValueError naming the first that is missing or of another shape)."""
-        for name, arr in self.fields.items():
-            v = fields.get(name)
-            if v is None or np.shape(v) != arr.shape:
-                raise ValueError(f"state field {name}: {'missing' if v is None else np.shape(v)}, expected "
-                                 f"{arr.shape}")
-        for name, arr in self.fields.items():
-            arr[...] = np.asarray(fields[name], dtype=float)
+        restore_named_fields(self.fields, fields)
 
     def output_schema(self) -> dict:
         """The state written with every snapshot (``state_<name>`` in the file): the cells and faces
