@@ -293,3 +293,34 @@ def test_the_output_column_holds_all_the_mass_below_a_given_output_height():
     assert EulerianBedSetup(dimension=1).lateral_cells == 1 and EulerianBedSetup(dimension=2).lateral_cells == 4
     with pytest.raises(ValueError, match=r"^output_height = 0.0152 is outside the valid range at these settings"):
         EulerianBedSetup(n_spheres=600, dimension=2, lateral_cells=2, cells_per_d=1, output_height=0.0152)
+
+
+def test_the_eulerian_bed_writes_its_cells_to_vtk(tmp_path):
+    """``[output] vtk = true``: one .vtu per snapshot with the grid's cells (quadrilaterals of the
+    grid's own sizes in 2-D) and the fields solid fraction, velocity and granular temperature,
+    equal to the file's state; the .pvd lists every snapshot's time."""
+    import meshio
+
+    from bsrflow.io.layer_runner import load_layer_config, run_layer_config
+    from bsrflow.io.netcdf import read_snapshots
+    cfgfile = tmp_path / "bed.toml"
+    cfgfile.write_text(EULERIAN_CONFIG.replace("cycles = 2\n", "cycles = 1\n")
+                       .replace("[output]\n", "[output]\nvtk = true\n"))
+    cfg = load_layer_config(cfgfile)
+    out = tmp_path / "bed.nc"
+    outcome = run_layer_config(cfg, out)
+    data, _ = read_snapshots(out)
+    folder = tmp_path / "bed_vtk"
+    files = sorted(folder.glob("layer_*.vtu"))
+    assert len(files) == len(data["time"]) == 51 and outcome.vtk.endswith("layer.pvd")
+    mesh = meshio.read(files[20])
+    nx, ny, nz = data["state_theta"].shape[1:]
+    assert (nx, ny) == (3, 1) and mesh.cells[0].type == "quad" and len(mesh.cells[0].data) == nx * nz
+    s = cfg.setup
+    pts = mesh.points
+    assert pts[:, 0].max() == pytest.approx(s.side) and pts[:, 2].max() == pytest.approx(nz * s.diameter / s.cells_per_d)
+    np.testing.assert_array_equal(mesh.cell_data["solid fraction [1]"][0], data["state_solid_fraction"][20].ravel())
+    np.testing.assert_array_equal(mesh.cell_data["granular temperature [m^2/s^2]"][0], data["state_theta"][20].ravel())
+    vel = mesh.cell_data["velocity [m/s]"][0]
+    np.testing.assert_array_equal(vel[:, 2], data["state_velocity_z"][20].ravel())
+    assert (folder / "layer.pvd").read_text().count("<DataSet") == 51

@@ -36,8 +36,9 @@ column file (``rho``, ``u_z``: the grid's mass per metre of height and its mean 
 the d/10 bins) with, by default, the grid's fields as ``state_solid_fraction``,
 ``state_velocity_x/_y/_z``, ``state_theta``, ``state_delta_max`` on the dimensions ``grid_x``,
 ``grid_y``, ``grid_z`` (the cell sizes in the attribute ``grid_cell_size_m``) and
-``state_floor_force``; checkpoints of its conserved fields; no VTK and no tracers yet (refused
-in one line).
+``state_floor_force``; checkpoints of its conserved fields; ``[output] vtk`` writes the grid's
+cells (solid fraction, velocity, granular temperature) for ParaView; no tracers yet (refused in
+one line).
 
 Tracers (optional) are moved with the interpolated velocity by the scheme's tracer integrator
 (:meth:`bsrflow.numerics.solver_nd.SimulationND.run`; for the packing bed the fields' SSP-RK3
@@ -233,9 +234,6 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
     if not isinstance(state, bool):
         raise ConfigError("output.state", f"{state!r} must be true or false")
     if kind == "granular_bed_eulerian":
-        if vtk:
-            raise ConfigError("output.vtk", "true: not an option of kind = \"granular_bed_eulerian\" (not yet: its "
-                              "cells' fields are the file's state_<name> variables, the column its rho and u_z)")
         if "tracers" in data:
             raise ConfigError("tracers", "not an option of kind = \"granular_bed_eulerian\" (not yet)")
     if kind == "granular_bed":
@@ -1166,6 +1164,15 @@ class GranularBedJob(_ControllerJob):
         if not self.cfg.state:
             return None
         return self.disc.output_schema(), self.disc.output_fields
+
+    def observers(self, writer, resumed_at):
+        """The file, and for the Eulerian grid with ``[output] vtk`` its cells' fields in VTK
+        (:meth:`bsrflow.numerics.bed_eulerian.EulerianBed.vtk_fields`) at every save."""
+        if self.disc.name != "granular_bed_eulerian" or not self.vtk_stem:
+            return super().observers(writer, resumed_at)
+        self.vtk_writer = _vtk_writer(self.vtk_stem, self.disc.vtk_grid(), resumed_at)
+        vtk = self.vtk_writer
+        return [writer, lambda t, u, rho, tracers=None: vtk.write_fields(t, self.disc.vtk_fields())]
 
 
 def _run_files(cfg: LayerConfig, out):

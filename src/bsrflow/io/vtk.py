@@ -22,6 +22,11 @@ Tracers (a run with tracers): one more file per snapshot, ``<stem>_tracers_<k>.v
 tracers as points (VTK vertices) and their index as the point field ``tracer [1]``; the ``.pvd``
 lists them as part 1 of each time step, beside the fields (part 0).
 
+The vibrated bed on its Eulerian grid (``kind = "granular_bed_eulerian"``,
+:meth:`bsrflow.numerics.bed_eulerian.EulerianBed.vtk_fields`) writes its own fields through
+:meth:`VTKWriter.write_fields`: ``solid fraction [1]``, ``velocity [m/s]``, ``granular temperature
+[m^2/s^2]``, on cells of its own sizes (the grid's ``dx`` may give one size per axis).
+
 Coordinates [m]: the floor frame, z vertical (a 2-D run's (x, z) plane is put at y = 0, so z
 stays vertical in ParaView; a column is the z axis at x = y = 0).  The times [s] are those of the ``.pvd`` collection (``timestep``);
 the floor's lab position ϑ(t) [m] is in the run's netCDF file (``floor``).
@@ -91,7 +96,8 @@ class VTKWriter:
     def _mesh(self):
         """Points (the cell corners, as (x, y, z) [m]) and the cell connectivity of the grid."""
         g = self.grid
-        edges = [g.lower[a] + np.arange(g.shape[a] + 1) * g.dx for a in range(self.dim)]
+        spacing = np.broadcast_to(np.asarray(g.dx, dtype=float), (self.dim,))     # one Δx, or one per axis
+        edges = [g.lower[a] + np.arange(g.shape[a] + 1) * spacing[a] for a in range(self.dim)]
         if self.dim == 1:
             nz = g.shape[0]
             points = np.zeros((nz + 1, 3))
@@ -131,10 +137,14 @@ class VTKWriter:
         return {density_name(self.dim, self.per_depth): rho.ravel(), VELOCITY_NAME: vel}
 
     def __call__(self, t, u, rho, tracers=None):
+        self.write_fields(t, self.cell_fields(u, rho), tracers)
+
+    def write_fields(self, t, fields: dict, tracers=None):
+        """Write one snapshot of named cell fields (``{"name [unit]": values}``, values of the
+        grid's cells in C order, (n_cells,) or (n_cells, 3)) at time t [s]."""
         import meshio
 
         t = float(t)
-        fields = self.cell_fields(u, rho)
         k = len(self.files)
         path = Path(f"{self.stem}_{k:06d}.vtu")
         mesh = meshio.Mesh(self._points, self._cells, cell_data={n: [v] for n, v in fields.items()})

@@ -737,6 +737,27 @@ class EulerianBed:
                 "delta_max": (dims, "m", "largest overlap per contact reached (the packing law's history)"),
                 "floor_force": ((), "N", "the floor's force on the bed, mean over the last advance")}
 
+    def vtk_grid(self):
+        """The grid's geometry for :class:`bsrflow.io.vtk.VTKWriter`: dim, shape and the cell
+        sizes per axis [m] (a 2-D grid as (x, z), a column as (z,)), the lower corner at 0."""
+        from types import SimpleNamespace
+        nx, ny, nz = self.shape
+        if self.dim == 1:
+            shape, dx = (nz,), (self.dx[2],)
+        elif self.dim == 2:
+            shape, dx = (nx, nz), (self.dx[0], self.dx[2])
+        else:
+            shape, dx = (nx, ny, nz), tuple(self.dx)
+        return SimpleNamespace(dim=self.dim, shape=shape, dx=np.array(dx), lower=(0.0,) * self.dim)
+
+    def vtk_fields(self) -> dict:
+        """The cells' fields for VTK (names with units; C order of :meth:`vtk_grid`'s axes):
+        solid fraction, velocity (u_x, u_y, u_z) relative to the floor, granular temperature."""
+        f = self.output_fields()
+        vel = np.stack([f["velocity_x"].ravel(), f["velocity_y"].ravel(), f["velocity_z"].ravel()], axis=-1)
+        return {"solid fraction [1]": f["solid_fraction"].ravel(), "velocity [m/s]": vel,
+                "granular temperature [m^2/s^2]": f["theta"].ravel()}
+
     def output_fields(self) -> dict:
         """The fields of :meth:`output_schema` now."""
         q = self.q
