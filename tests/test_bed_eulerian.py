@@ -34,10 +34,14 @@ def _random_bed(shape, dx, par, seed=1):
 
 
 def _params(s, dx):
+    """The scheme's constants by name and as the kernels' array, the array in the kernels' order
+    and the contact wave speed bound the setup's own (d√(k2/m) = √(K_eff d/(A e² ρ_c)))."""
     par = R.make_params(s, dx)
-    arr, named = B.scheme_params(s, 4)
-    for k in ("d", "m", "k1", "k2", "c_cap", "rho_tiny", "e", "rho_s", "phi_min", "e_w"):
-        assert named[k] == pytest.approx(par[k], rel=1e-15), k
+    arr, named = B.scheme_params(s)
+    order = ("d", "m", "k1", "k2", "c_cap", "rho_tiny", "e", "rho_s", "phi_min", "e_w")
+    assert arr.tolist() == [named[k] for k in order]
+    assert named["c_cap"] == pytest.approx(s.contact_wave_speed(), rel=1e-14)
+    assert named["k1"] == pytest.approx(s.layer_stiffness / s.area, rel=1e-15)
     return par, arr
 
 

@@ -871,16 +871,16 @@ def eulerian_case(setup: BedSetup, case: dict, lagrangian, dim=1, cells_per_d=4,
     r = run_eulerian_bed(s, dim, cells_per_d, lateral_cells, perturbation, save_every=s.save_every, progress=progress)
     flights, tau, last6 = _last_six(r["t"], r["floor_force"], s)
     flight = float(np.mean(last6))
+    takeoff, landing = flight_phases(flights, s.period, s.cycles)
+    window = _rms_window(r["t"], s.period)
     out = {"gamma": s.gamma, "dim": dim, "cells_per_d": cells_per_d, "lateral_cells": lateral_cells,
            "perturbation": perturbation, "grid_shape": list(r["shape"]), "cell_size_m": r["dx"],
            "flight_time_s": flight, "flight_time_per_cycle_s": tau.tolist(),
-           "takeoff_phase": flight_phases(flights, s.period, s.cycles)[0],
-           "landing_phase": flight_phases(flights, s.period, s.cycles)[1],
+           "takeoff_phase": takeoff, "landing_phase": landing,
            "lagrangian_flight_time_s": case["flight_time_s"],
            "flight_rel_diff_to_lagrangian": flight / case["flight_time_s"] - 1.0,
            "mass_centre_rms_to_lagrangian_over_d": float(math.sqrt(np.mean(
-               (r["mass_centre"][_rms_window(r["t"], s.period)]
-                - np.interp(r["t"][_rms_window(r["t"], s.period)], res.t, res.mass_centre)) ** 2)) / s.diameter),
+               (r["mass_centre"][window] - np.interp(r["t"][window], res.t, res.mass_centre)) ** 2)) / s.diameter),
            "lateral_spread_max_over_d": float(r["lateral_spread"].max() / s.diameter),
            "lateral_spread_max_per_cycle_over_d": [
                float(r["lateral_spread"][(r["t"] >= c * s.period - 1e-12) & (r["t"] <= (c + 1) * s.period + 1e-12)].max()

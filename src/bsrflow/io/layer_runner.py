@@ -1137,9 +1137,7 @@ class GranularBedJob(_ControllerJob):
     def compile(self, t0):
         from ..numerics.bed_lagrangian import _compile_bed
         if self.disc.name == "granular_bed_eulerian":
-            q = self.disc.q.copy()
             self.disc.advance(t0, t0)                      # (no step: compiles the loop)
-            self.disc.q[...] = q
         else:
             _compile_bed()
 

@@ -56,7 +56,7 @@ import math
 import numba
 import numpy as np
 
-from ..physics.granular_bed import g0_cs
+from ..physics.granular_bed import bulk_viscosity, conductivity, g0_cs, kinetic_pressure, shear_viscosity
 from ..physics.packing import history_update
 from . import packing_kernels as pk
 
@@ -76,7 +76,7 @@ def kinetic_sound_speed(phi, theta, e):
     fluctuations, c_k² = θ(Y + φY') + (2/3)θY², Y = 1 + 2(1 + e)φg0 (Carnahan–Starling,
     g0' = (2.5 − φ)/(1 − φ)⁴, 0 above its cap at φ = 0.95)."""
     p = min(phi, 0.95)
-    g = (1.0 - 0.5 * p) / (1.0 - p) ** 3
+    g = g0_cs(phi)
     dg = (2.5 - p) / (1.0 - p) ** 4 if phi < 0.95 else 0.0
     y = 1.0 + 2.0 * (1.0 + e) * phi * g
     dy = 2.0 * (1.0 + e) * (g + phi * dg)
@@ -87,7 +87,8 @@ def kinetic_sound_speed(phi, theta, e):
 @numba.njit(cache=True)
 def _cell_pass(q, w, co, rho_tiny, rho_s, d, e, phi_min):
     """Primitives w (6: ρ, u_x, u_y, u_z, θ, δ_max; zero where ρ ≤ rho_tiny, θ ≥ 0) and the cell
-    coefficients co (4: μ, λ, κ, p; μ, λ, κ zero below φ_min)."""
+    coefficients co (4: μ, λ, κ, p of :mod:`bsrflow.physics.granular_bed`; μ, λ, κ zero below
+    φ_min)."""
     _, NX, NY, NZ = q.shape
     for i in range(NX):
         for j in range(NY):
@@ -107,17 +108,11 @@ def _cell_pass(q, w, co, rho_tiny, rho_s, d, e, phi_min):
                         w[c, i, j, k] = 0.0
                     r = 0.0
                 phi = r / rho_s
-                g = g0_cs(phi)
-                st = math.sqrt(th)
-                ope = 1.0 + e
-                co[3, i, j, k] = rho_s * phi * th * (1.0 + 2.0 * ope * phi * g)
+                co[3, i, j, k] = kinetic_pressure(phi, th, rho_s, e)
                 if phi >= phi_min:
-                    coll = rho_s * d * phi * phi * g * ope * st / SQRT_PI
-                    co[0, i, j, k] = (10.0 * rho_s * d * st * SQRT_PI / (96.0 * ope * g) * (1.0 + 0.8 * ope * phi * g) ** 2
-                                      + 0.8 * coll)
-                    co[1, i, j, k] = (4.0 / 3.0) * coll
-                    co[2, i, j, k] = (150.0 * rho_s * d * st * SQRT_PI / (384.0 * ope * g)
-                                      * (1.0 + 1.2 * ope * phi * g) ** 2 + 2.0 * coll)
+                    co[0, i, j, k] = shear_viscosity(phi, th, rho_s, d, e)
+                    co[1, i, j, k] = bulk_viscosity(phi, th, rho_s, d, e)
+                    co[2, i, j, k] = conductivity(phi, th, rho_s, d, e)
                 else:
                     co[0, i, j, k] = 0.0
                     co[1, i, j, k] = 0.0
@@ -183,7 +178,6 @@ def _face(w, co, G, axis, i, j, k, NX, NY, NZ, dx, par, out, sc):
     viscous normal stress, the HLLE normal momentum flux.  sc: scratch (46), allocated once per
     line by the caller (allocating per face cost most of the step)."""
     d, m, k1, k2, c_cap, rho_tiny, e, rho_s = par[0], par[1], par[2], par[3], par[4], par[5], par[6], par[7]
-    nrm = 1 + axis
     # the four cells along the axis: l-1, l, r, r+1
     rr4 = sc[0:4]
     un4 = sc[4:8]
@@ -543,7 +537,7 @@ def work_arrays(shape):
             np.zeros((9,) + cells), np.zeros(cells), np.zeros(cells), np.zeros(cells[:2]))
 
 
-def scheme_params(setup, cells_per_d):
+def scheme_params(setup):
     """(par array of :func:`bed_rhs`, dict of the same by name) for a
     :class:`~bsrflow.physics.granular_bed.BedSetup`: d, m = ρ_c d, k1 = K_eff/A [Pa/m], k2 = k1/e²,
     the contact wave speed bound c = d√(k2/m), rho_tiny = 10⁻¹² ρ_c, e, ρ_s, φ_min, the floor's e_w."""
@@ -582,7 +576,7 @@ class EulerianBed:
     def __init__(self, setup, dim=1, cells_per_d=4, lateral_cells=1, perturbation=0.0, cfl=None):
         """(For an :class:`~bsrflow.physics.granular_bed.EulerianBedSetup`, :meth:`from_setup`
         takes the grid from the setup.)"""
-        from ..physics.granular_bed import check_eulerian_grid
+        from ..physics.granular_bed import check_eulerian_grid, eulerian_vertical_cells
         from ..physics.motion import SinusoidalVibration
         from .bed_lagrangian import static_bed
         check_eulerian_grid(dim, cells_per_d, lateral_cells, perturbation)
@@ -592,11 +586,11 @@ class EulerianBed:
         s = setup
         self.setup, self.dim, self.cfl = s, dim, float(cfl)
         self.cells_per_d, self.lateral_cells, self.perturbation = int(cells_per_d), int(lateral_cells), perturbation
-        self.par, self.named = scheme_params(s, cells_per_d)
+        self.par, self.named = scheme_params(s)
         dz = s.diameter / cells_per_d
         dh = s.side / lateral_cells
         self.dx = np.array([dh, dh, dz])
-        nz = int(math.floor(s.output_top / dz + 1e-9))          # the lid at or below output_top
+        nz = eulerian_vertical_cells(s, cells_per_d)             # the lid at or below output_top
         nx = lateral_cells
         ny = lateral_cells if dim == 3 else 1
         self.z = (np.arange(nz) + 0.5) * dz

@@ -317,16 +317,12 @@ def stable_dt_numpy(q, dim, dx, par):
     return min(dt, float(lim.min()))
 
 
-def make_params(setup, dx, cfl=0.4, phi_min=1e-3, rho_tiny_rel=1e-12):
-    """The scheme's constants for a :class:`~bsrflow.physics.granular_bed.BedSetup`."""
-    s = setup
-    rho_c = s.phi_c * s.density
-    k1 = s.layer_stiffness / s.area
-    k2 = k1 / s.restitution ** 2
-    m = rho_c * s.diameter
-    return {"d": s.diameter, "m": m, "rho_c": rho_c, "k1": k1, "k2": k2, "c_cap": s.diameter * np.sqrt(k2 / m),
-            "e": s.restitution, "e_d": s.dissipation_restitution, "e_w": s.floor_dissipation_restitution,
-            "rho_s": s.density, "phi_min": phi_min, "rho_tiny": rho_tiny_rel * rho_c, "cfl": cfl}
+def make_params(setup, dx, cfl=0.4):
+    """The scheme's constants for a :class:`~bsrflow.physics.granular_bed.BedSetup`, by name
+    (:func:`bsrflow.numerics.bed_eulerian.scheme_params`'s) with ``cfl``; ``dx`` is not used (the
+    constants do not depend on the grid)."""
+    from .bed_eulerian import scheme_params
+    return {**scheme_params(setup)[1], "cfl": cfl}
 
 
 __all__ = ["primitives_numpy", "axis_fluxes_numpy", "rhs_numpy", "post_step_numpy", "stable_dt_numpy",

@@ -65,7 +65,7 @@ from .packing_bed import MAX_STATIC_OVERLAP, MAX_STEPS      # the packing bed's 
 __all__ = ["BedSetup", "g0_cs", "kinetic_pressure", "bulk_viscosity", "shear_viscosity", "pressure_and_viscosity",
            "conductivity",
            "dissipation", "wall_loss", "effective_restitution", "constitutive_numpy", "EulerianBedSetup",
-           "check_eulerian_grid"]
+           "check_eulerian_grid", "eulerian_vertical_cells"]
 
 SQRT_PI = math.sqrt(math.pi)
 
@@ -412,6 +412,12 @@ MAX_PERTURBATION = 0.05
 d ε/(1 + ε), at most :data:`MAX_STATIC_OVERLAP` d (the contact law's small-overlap limit)."""
 
 
+def eulerian_vertical_cells(setup: BedSetup, cells_per_d: int) -> int:
+    """Cells of d/cells_per_d from the floor to the last whole cell at or below the setup's
+    :attr:`~BedSetup.output_top` (the Eulerian grid's lid, :mod:`bsrflow.numerics.bed_eulerian`)."""
+    return int(math.floor(setup.output_top * cells_per_d / setup.diameter + 1e-9))
+
+
 def check_eulerian_grid(dim, cells_per_d, lateral_cells, perturbation, dim_name="dim") -> None:
     """Refuse (ValueError, one line naming the field and its valid range) a grid of the Eulerian
     bed (:mod:`bsrflow.numerics.bed_eulerian`) that is not one: ``dim`` in {1, 2, 3},
@@ -455,7 +461,7 @@ class EulerianBedSetup(BedSetup):
         check_eulerian_grid(self.dimension, self.cells_per_d, self.lateral_cells, self.perturbation, "dimension")
         super().__post_init__()
         dz = self.diameter / self.cells_per_d
-        top = math.floor(self.output_top / dz + 1e-9) * dz
+        top = eulerian_vertical_cells(self, self.cells_per_d) * dz
         if top < self.rest_height + dz:
             raise ValueError(f"output_height = {self.output_height!r} is outside the valid range at these settings, "
                              f"[{self.rest_height + 2 * dz:.4g}, 100] m: the grid of whole cells below it would end "
@@ -465,8 +471,7 @@ class EulerianBedSetup(BedSetup):
         """Refuse more than :data:`MAX_CELL_STEPS` cell-steps or :data:`MAX_STEPS` steps of the grid
         (naming ``cells_per_d``), in place of the Lagrangian cells' bound."""
         dz = self.diameter / self.cells_per_d
-        nz = math.floor(self.output_top / dz + 1e-9)
-        cells = nz * self.lateral_cells ** (self.dimension - 1)
+        cells = eulerian_vertical_cells(self, self.cells_per_d) * self.lateral_cells ** (self.dimension - 1)
         per_step = 1.0 / dz + (self.dimension - 1) * self.lateral_cells / self.side      # Σ_a 1/Δx_a
         steps = (self.t_end + self.settle) * self.contact_wave_speed() * per_step / self.cfl
         if cells * steps > MAX_CELL_STEPS or steps > MAX_STEPS:
