@@ -55,7 +55,7 @@ def test_compiled_kernels_equal_the_numpy_twin(shape):
     dq = np.zeros_like(q)
     work = B.work_arrays(q.shape)
     floor = work[8]
-    B.bed_rhs(q, dq, *work[3:8], floor, dim, dx, -9.81, arr)
+    B.bed_rhs(q, dq, *work[3:8], floor, dim, dx, -9.81, arr, False)
     for c in range(6):
         scale = np.abs(ref[c]).max()
         if scale == 0.0:
@@ -69,6 +69,11 @@ def test_compiled_kernels_equal_the_numpy_twin(shape):
     qb = q.copy()
     B.bed_post_step(qb, 1e-5, par["d"], par["m"], par["rho_s"], par["e_d"], par["rho_tiny"])
     assert np.abs(qb - R.post_step_numpy(q, 1e-5, par)).max() <= 1e-12 * np.abs(q).max()
+    # the parallel passes: the serial numbers bit for bit
+    dq_p = np.full_like(q, np.nan)
+    work_p = B.work_arrays(q.shape)
+    B.bed_rhs(q, dq_p, *work_p[3:8], work_p[8], dim, dx, -9.81, arr, True)
+    assert np.array_equal(dq_p, dq) and np.array_equal(work_p[8], floor)
 
 
 @pytest.mark.parametrize("shape", [(1, 1, 40), (6, 1, 40), (5, 4, 40)])
@@ -150,6 +155,23 @@ def test_mass_is_conserved_and_a_lateral_mode_keeps_the_mass():
     assert bed.lateral_spread() > 1e-4 * s.diameter                   # the mode moves the columns apart
     u = bed.q[1:3] / np.maximum(bed.q[0], 1e-30)
     assert np.abs(u[:, bed.q[0] > 0.1 * bed.named["rho_c"]]).max() > 1e-4      # lateral flow [m/s]
+
+
+def test_parallel_stepping_gives_the_serial_numbers_bit_for_bit(monkeypatch):
+    """A 3-D bed with a lateral mode (every pass sees varying planes and lines), stepped through
+    its first landing with the passes on numba's threads and one after the other: the same
+    state, floor force and steps bit for bit; the grid's own choice follows PARALLEL_MIN_CELLS."""
+    s = BedSetup(gamma=4.0, cycles=1, n_spheres=600)
+    beds = [B.EulerianBed(s, 3, cells_per_d=2, lateral_cells=4, perturbation=0.05) for _ in range(2)]
+    for bed, parallel in zip(beds, (False, True)):
+        monkeypatch.setattr(bed, "PARALLEL_MIN_CELLS", 0 if parallel else 10 ** 9)
+        monkeypatch.setattr(B.numba, "get_num_threads", lambda: 2)
+        assert bed.parallel is parallel
+    f_serial, f_parallel = (_run(bed, 0.03) for bed in beds)
+    assert beds[0].counters[0] == beds[1].counters[0] > 1000
+    assert np.count_nonzero(f_serial) > 5
+    assert np.array_equal(f_serial, f_parallel) and np.array_equal(beds[0].q, beds[1].q)
+    assert beds[0].lateral_spread() > 1e-4 * s.diameter
 
 
 def test_the_bed_at_rest_stays_at_rest():

@@ -47,6 +47,12 @@ A horizontally uniform state evolves exactly as the column (dim 1): every horizo
 uniform line computes the same numbers, so their differences are exact zeros, and the vertical
 terms are the column's (tested bit for bit).  :mod:`bsrflow.numerics.bed_eulerian_reference` is
 the plain NumPy twin (tested).  Units: SI.
+
+Threads: on a grid of at least :attr:`EulerianBed.PARALLEL_MIN_CELLS` cells (and with more than
+one numba thread) the right-hand side's cell, column and line passes run over their planes and
+lines in parallel (:func:`bed_rhs`); every cell's numbers are computed by one thread in the
+serial order, so the results are the serial ones bit for bit (tested).  The time-step bound, the
+stages' sums and the post-step pass stay serial (a few % of a step, ``bench/bench_bed_eulerian.py``).
 """
 
 from __future__ import annotations
@@ -55,6 +61,7 @@ import math
 
 import numba
 import numpy as np
+from numba import prange
 
 from ..physics.granular_bed import bulk_viscosity, conductivity, g0_cs, kinetic_pressure, shear_viscosity
 from ..physics.packing import history_update
@@ -85,38 +92,51 @@ def kinetic_sound_speed(phi, theta, e):
 
 
 @numba.njit(cache=True)
-def _cell_pass(q, w, co, rho_tiny, rho_s, d, e, phi_min):
+def _cell_pass_plane(q, w, co, i, rho_tiny, rho_s, d, e, phi_min):
     """Primitives w (6: ρ, u_x, u_y, u_z, θ, δ_max; zero where ρ ≤ rho_tiny, θ ≥ 0) and the cell
     coefficients co (4: μ, λ, κ, p of :mod:`bsrflow.physics.granular_bed`; μ, λ, κ zero below
-    φ_min)."""
+    φ_min) of the cells of plane x = i."""
     _, NX, NY, NZ = q.shape
-    for i in range(NX):
-        for j in range(NY):
-            for k in range(NZ):
-                r = q[RHO, i, j, k]
-                if r > rho_tiny:
-                    w[0, i, j, k] = r
-                    w[1, i, j, k] = q[MX, i, j, k] / r
-                    w[2, i, j, k] = q[MY, i, j, k] / r
-                    w[3, i, j, k] = q[MZ, i, j, k] / r
-                    th = max(q[ENER, i, j, k] / (1.5 * r), 0.0)
-                    w[4, i, j, k] = th
-                    w[5, i, j, k] = q[HIST, i, j, k] / r
-                else:
-                    th = 0.0
-                    for c in range(6):
-                        w[c, i, j, k] = 0.0
-                    r = 0.0
-                phi = r / rho_s
-                co[3, i, j, k] = kinetic_pressure(phi, th, rho_s, e)
-                if phi >= phi_min:
-                    co[0, i, j, k] = shear_viscosity(phi, th, rho_s, d, e)
-                    co[1, i, j, k] = bulk_viscosity(phi, th, rho_s, d, e)
-                    co[2, i, j, k] = conductivity(phi, th, rho_s, d, e)
-                else:
-                    co[0, i, j, k] = 0.0
-                    co[1, i, j, k] = 0.0
-                    co[2, i, j, k] = 0.0
+    for j in range(NY):
+        for k in range(NZ):
+            r = q[RHO, i, j, k]
+            if r > rho_tiny:
+                w[0, i, j, k] = r
+                w[1, i, j, k] = q[MX, i, j, k] / r
+                w[2, i, j, k] = q[MY, i, j, k] / r
+                w[3, i, j, k] = q[MZ, i, j, k] / r
+                th = max(q[ENER, i, j, k] / (1.5 * r), 0.0)
+                w[4, i, j, k] = th
+                w[5, i, j, k] = q[HIST, i, j, k] / r
+            else:
+                th = 0.0
+                for c in range(6):
+                    w[c, i, j, k] = 0.0
+                r = 0.0
+            phi = r / rho_s
+            co[3, i, j, k] = kinetic_pressure(phi, th, rho_s, e)
+            if phi >= phi_min:
+                co[0, i, j, k] = shear_viscosity(phi, th, rho_s, d, e)
+                co[1, i, j, k] = bulk_viscosity(phi, th, rho_s, d, e)
+                co[2, i, j, k] = conductivity(phi, th, rho_s, d, e)
+            else:
+                co[0, i, j, k] = 0.0
+                co[1, i, j, k] = 0.0
+                co[2, i, j, k] = 0.0
+
+
+@numba.njit(cache=True)
+def _cell_pass(q, w, co, rho_tiny, rho_s, d, e, phi_min):
+    """:func:`_cell_pass_plane` over every plane, in order."""
+    for i in range(q.shape[1]):
+        _cell_pass_plane(q, w, co, i, rho_tiny, rho_s, d, e, phi_min)
+
+
+@numba.njit(cache=True, parallel=True)
+def _cell_pass_parallel(q, w, co, rho_tiny, rho_s, d, e, phi_min):
+    """:func:`_cell_pass_plane` over every plane, the planes in parallel."""
+    for i in prange(q.shape[1]):
+        _cell_pass_plane(q, w, co, i, rho_tiny, rho_s, d, e, phi_min)
 
 
 @numba.njit(cache=True, inline="always")
@@ -135,28 +155,27 @@ def _at(a, c, i, j, k, NX, NY, NZ, sign_z):
 
 
 @numba.njit(cache=True)
-def _gradients(w, G, dx, dim):
-    """Centred cell gradients G[3a + b] = ∂_a u_b (a, b: x, y, z) [1/s] (cell sizes dx (3) [m]);
-    zero along the axes the grid does not have."""
+def _gradients_plane(w, G, dx, dim, i):
+    """Centred cell gradients G[3a + b] = ∂_a u_b (a, b: x, y, z) [1/s] of the cells of plane
+    x = i (cell sizes dx (3) [m]); zero along the axes the grid does not have."""
     _, NX, NY, NZ = w.shape
     inv_x, inv_y, inv_z = 0.5 / dx[0], 0.5 / dx[1], 0.5 / dx[2]
-    for i in range(NX):
-        for j in range(NY):
-            for k in range(NZ):
-                for b in range(3):
-                    sz = -1.0 if b == 2 else 1.0
-                    G[6 + b, i, j, k] = (_at(w, 1 + b, i, j, k + 1, NX, NY, NZ, sz)
-                                         - _at(w, 1 + b, i, j, k - 1, NX, NY, NZ, sz)) * inv_z
-                    if dim >= 2:
-                        G[b, i, j, k] = (_at(w, 1 + b, i + 1, j, k, NX, NY, NZ, sz)
-                                         - _at(w, 1 + b, i - 1, j, k, NX, NY, NZ, sz)) * inv_x
-                    else:
-                        G[b, i, j, k] = 0.0
-                    if dim == 3:
-                        G[3 + b, i, j, k] = (_at(w, 1 + b, i, j + 1, k, NX, NY, NZ, sz)
-                                             - _at(w, 1 + b, i, j - 1, k, NX, NY, NZ, sz)) * inv_y
-                    else:
-                        G[3 + b, i, j, k] = 0.0
+    for j in range(NY):
+        for k in range(NZ):
+            for b in range(3):
+                sz = -1.0 if b == 2 else 1.0
+                G[6 + b, i, j, k] = (_at(w, 1 + b, i, j, k + 1, NX, NY, NZ, sz)
+                                     - _at(w, 1 + b, i, j, k - 1, NX, NY, NZ, sz)) * inv_z
+                if dim >= 2:
+                    G[b, i, j, k] = (_at(w, 1 + b, i + 1, j, k, NX, NY, NZ, sz)
+                                     - _at(w, 1 + b, i - 1, j, k, NX, NY, NZ, sz)) * inv_x
+                else:
+                    G[b, i, j, k] = 0.0
+                if dim == 3:
+                    G[3 + b, i, j, k] = (_at(w, 1 + b, i, j + 1, k, NX, NY, NZ, sz)
+                                         - _at(w, 1 + b, i, j - 1, k, NX, NY, NZ, sz)) * inv_y
+                else:
+                    G[3 + b, i, j, k] = 0.0
 
 
 @numba.njit(cache=True, inline="always")
@@ -279,70 +298,135 @@ def _face(w, co, G, axis, i, j, k, NX, NY, NZ, dx, par, out, sc):
             out[4] += -kapf * (th4[2] - th4[1]) / dx[axis]
 
 
+@numba.njit(cache=True, inline="always")
+def _rhs_columns_plane(dq, w, co, G, div, heat, floor, dim, dx, par, i):
+    """The gradients of plane x = i (:func:`_gradients_plane`), then its vertical lines' faces:
+    dq, div and heat of its cells set to the vertical terms, ``floor`` its floor stresses.  (A
+    vertical face needs the gradients of its own column only.)"""
+    _, NX, NY, NZ = w.shape
+    i = np.int64(i)                       # (a prange index may be unsigned: keep the arithmetic integer)
+    _gradients_plane(w, G, dx, dim, i)
+    inv = 1.0 / dx[2]
+    out = np.empty(11)
+    prev = np.empty(11)
+    sc = np.empty(46)
+    for j in range(NY):
+        # vertical line: faces k − ½ for k = 0 … NZ (face k between cells k − 1 and k)
+        for k in range(NZ + 1):
+            _face(w, co, G, 2, i, j, k - 1, NX, NY, NZ, dx, par, out, sc)
+            if k == 0:
+                floor[i, j] = out[3]
+            else:
+                kc = k - 1
+                for c in range(N_FIELDS):
+                    dq[c, i, j, kc] = -(out[c] - prev[c]) * inv
+                div[i, j, kc] = (out[6] - prev[6]) * inv
+                heat[i, j, kc] = 0.5 * (out[7] + prev[7])
+            for c in range(11):
+                prev[c] = out[c]
+
+
+@numba.njit(cache=True, inline="always")
+def _rhs_line(dq, w, co, G, div, heat, dx, par, axis, p):
+    """Line p of the horizontal ``axis`` (0: x, 1: y; the lines numbered (other horizontal index)
+    × NZ + k): its faces' terms added to dq, div and heat of its cells."""
+    _, NX, NY, NZ = w.shape
+    p = np.int64(p)                       # (a prange index may be unsigned: keep the arithmetic integer)
+    nA = NX if axis == 0 else NY
+    inv_h = 1.0 / dx[axis]
+    out = np.empty(11)
+    prev = np.empty(11)
+    sc = np.empty(46)
+    jb = p // NZ
+    kk = p - jb * NZ
+    for ia in range(nA + 1):
+        if axis == 0:
+            fi, fj = ia - 1, jb
+        else:
+            fi, fj = jb, ia - 1
+        _face(w, co, G, axis, fi, fj, kk, NX, NY, NZ, dx, par, out, sc)
+        if ia > 0:
+            ic, jc = fi, fj
+            for c in range(N_FIELDS):
+                dq[c, ic, jc, kk] += -(out[c] - prev[c]) * inv_h
+            div[ic, jc, kk] += (out[6] - prev[6]) * inv_h
+            heat[ic, jc, kk] += 0.5 * (out[7] + prev[7])
+        for c in range(11):
+            prev[c] = out[c]
+
+
 @numba.njit(cache=True)
-def bed_rhs(q, dq, w, co, G, div, heat, floor, dim, dx, accel, par):
+def _rhs_sources_plane(dq, w, co, div, heat, dim, accel, e_w, inv_z, i):
+    """The sources of plane x = i: gravity and the floor's acceleration, −p∇·u + τ:∇u, the
+    floor's collisional loss out of the bottom cells; the momenta along absent axes zeroed."""
+    _, NX, NY, NZ = w.shape
+    for j in range(NY):
+        for k in range(NZ):
+            if dim < 3:
+                dq[MY, i, j, k] = 0.0
+            if dim < 2:
+                dq[MX, i, j, k] = 0.0
+            dq[MZ, i, j, k] += w[0, i, j, k] * accel
+            dq[ENER, i, j, k] += -co[3, i, j, k] * div[i, j, k] + heat[i, j, k]
+        th0 = w[4, i, j, 0]
+        dq[ENER, i, j, 0] -= (1.0 - e_w) * co[3, i, j, 0] * math.sqrt(2.0 * th0 / math.pi) * inv_z
+
+
+@numba.njit(cache=True)
+def _rhs_serial(q, dq, w, co, G, div, heat, floor, dim, dx, accel, par):
+    """:func:`bed_rhs`'s passes, one after the other: cells, columns, horizontal lines, sources."""
+    _, NX, NY, NZ = q.shape
+    for i in range(NX):
+        _cell_pass_plane(q, w, co, i, par[5], par[7], par[0], par[6], par[8])
+    for i in range(NX):
+        _rhs_columns_plane(dq, w, co, G, div, heat, floor, dim, dx, par, i)
+    for axis in range(dim - 1):
+        for p in range(NY * NZ if axis == 0 else NX * NZ):
+            _rhs_line(dq, w, co, G, div, heat, dx, par, axis, p)
+    for i in range(NX):
+        _rhs_sources_plane(dq, w, co, div, heat, dim, accel, par[9], 1.0 / dx[2], i)
+
+
+@numba.njit(cache=True, parallel=True)
+def _columns_parallel(dq, w, co, G, div, heat, floor, dim, dx, par):
+    """:func:`_rhs_columns_plane` of every plane, in parallel."""
+    for i in prange(w.shape[1]):
+        _rhs_columns_plane(dq, w, co, G, div, heat, floor, dim, dx, par, i)
+
+
+@numba.njit(cache=True, parallel=True)
+def _lines_parallel(dq, w, co, G, div, heat, dx, par, axis):
+    """:func:`_rhs_line` of every line of the horizontal ``axis``, in parallel."""
+    _, NX, NY, NZ = w.shape
+    n_lines = NZ * (NY if axis == 0 else NX)
+    for p in prange(n_lines):
+        _rhs_line(dq, w, co, G, div, heat, dx, par, axis, p)
+
+
+@numba.njit(cache=True)
+def _rhs_parallel(q, dq, w, co, G, div, heat, floor, dim, dx, accel, par):
+    """:func:`_rhs_serial`'s passes, the cells', the columns' and the lines' over their planes
+    (lines) in parallel (a pass writes only its own plane's or line's cells, and reads what the
+    passes before it wrote); the sources, a small part, serial."""
+    _cell_pass_parallel(q, w, co, par[5], par[7], par[0], par[6], par[8])
+    _columns_parallel(dq, w, co, G, div, heat, floor, dim, dx, par)
+    for axis in range(dim - 1):
+        _lines_parallel(dq, w, co, G, div, heat, dx, par, axis)
+    for i in range(w.shape[1]):
+        _rhs_sources_plane(dq, w, co, div, heat, dim, accel, par[9], 1.0 / dx[2], i)
+
+
+@numba.njit(cache=True)
+def bed_rhs(q, dq, w, co, G, div, heat, floor, dim, dx, accel, par, parallel):
     """dq = L(q) (module docstring; work arrays w (6, …), co (4, …), G (9, …), div, heat (…)),
     floor (NX, NY): the floor's stress [Pa] per column.  par: d, m, k1, k2, c_cap, rho_tiny, e,
-    rho_s, phi_min, e_w."""
-    _, NX, NY, NZ = q.shape
-    _cell_pass(q, w, co, par[5], par[7], par[0], par[6], par[8])
-    _gradients(w, G, dx, dim)
-    inv = 1.0 / dx[2]
-    for i in range(NX):
-        out = np.empty(11)
-        prev = np.empty(11)
-        sc = np.empty(46)
-        for j in range(NY):
-            # vertical line: faces k − ½ for k = 0 … NZ (face k between cells k − 1 and k)
-            for k in range(NZ + 1):
-                _face(w, co, G, 2, i, j, k - 1, NX, NY, NZ, dx, par, out, sc)
-                if k == 0:
-                    floor[i, j] = out[3]
-                else:
-                    kc = k - 1
-                    for c in range(N_FIELDS):
-                        dq[c, i, j, kc] = -(out[c] - prev[c]) * inv
-                    div[i, j, kc] = (out[6] - prev[6]) * inv
-                    heat[i, j, kc] = 0.5 * (out[7] + prev[7])
-                for c in range(11):
-                    prev[c] = out[c]
-    for axis in range(dim - 1):
-        nA = NX if axis == 0 else NY
-        nB = NY if axis == 0 else NX
-        n_lines = nB * NZ
-        inv_h = 1.0 / dx[axis]
-        for p in range(n_lines):
-            out = np.empty(11)
-            prev = np.empty(11)
-            sc = np.empty(46)
-            jb = p // NZ
-            kk = p - jb * NZ
-            for ia in range(nA + 1):
-                if axis == 0:
-                    fi, fj = ia - 1, jb
-                else:
-                    fi, fj = jb, ia - 1
-                _face(w, co, G, axis, fi, fj, kk, NX, NY, NZ, dx, par, out, sc)
-                if ia > 0:
-                    ic, jc = fi, fj
-                    for c in range(N_FIELDS):
-                        dq[c, ic, jc, kk] += -(out[c] - prev[c]) * inv_h
-                    div[ic, jc, kk] += (out[6] - prev[6]) * inv_h
-                    heat[ic, jc, kk] += 0.5 * (out[7] + prev[7])
-                for c in range(11):
-                    prev[c] = out[c]
-    e_w = par[9]
-    for i in range(NX):
-        for j in range(NY):
-            for k in range(NZ):
-                if dim < 3:
-                    dq[MY, i, j, k] = 0.0
-                if dim < 2:
-                    dq[MX, i, j, k] = 0.0
-                dq[MZ, i, j, k] += w[0, i, j, k] * accel
-                dq[ENER, i, j, k] += -co[3, i, j, k] * div[i, j, k] + heat[i, j, k]
-            th0 = w[4, i, j, 0]
-            dq[ENER, i, j, 0] -= (1.0 - e_w) * co[3, i, j, 0] * math.sqrt(2.0 * th0 / math.pi) * inv
+    rho_s, phi_min, e_w.  ``parallel``: the planes (and the horizontal lines) on numba's threads;
+    every cell's numbers are computed by one thread in the serial order, so the result is the
+    serial one bit for bit (tested)."""
+    if parallel:
+        _rhs_parallel(q, dq, w, co, G, div, heat, floor, dim, dx, accel, par)
+    else:
+        _rhs_serial(q, dq, w, co, G, div, heat, floor, dim, dx, accel, par)
 
 
 @numba.njit(cache=True)
@@ -487,13 +571,15 @@ def _floor_mean(floor):
 
 
 @numba.njit(cache=True)
-def bed_advance(q, t, t_stop, dim, dx, cfl, par, gravity, amp, omega, moving, e_d, work, counters, max_steps):
+def bed_advance(q, t, t_stop, dim, dx, cfl, par, gravity, amp, omega, moving, e_d, work, counters, max_steps,
+                parallel):
     """SSP-RK3 steps (Shu–Osher form) from t to exactly t_stop, at most ``max_steps``; returns
     (t, ∫ floor stress dt [Pa s]: the stages' floor stresses, mean over the columns, weighted
     1/6, 1/6, 2/3).  Floor acceleration ϑ'' = −aω² sin ωt while ``moving`` (else 0); counters:
     [steps, status, where] (status 1 negative density, 2 non-finite, as
     :func:`bed_stable_dt`).  work: (q1, q2, dq, w (6), co (4), G (9), div, heat, floor) from
-    :func:`work_arrays`."""
+    :func:`work_arrays`.  ``parallel``: the right-hand side's passes on numba's threads
+    (:func:`bed_rhs`; the same numbers bit for bit), the rest of the step serial."""
     q1, q2, dq, w, co, G, div, heat, floor = work
     d, m, rho_s, rho_tiny = par[0], par[1], par[7], par[5]
     impulse = 0.0
@@ -510,15 +596,15 @@ def bed_advance(q, t, t_stop, dim, dx, cfl, par, gravity, amp, omega, moving, e_
         acc0 = -gravity + (amp * omega * omega * math.sin(omega * t) if moving else 0.0)
         acc1 = -gravity + (amp * omega * omega * math.sin(omega * (t + dt)) if moving else 0.0)
         acc2 = -gravity + (amp * omega * omega * math.sin(omega * (t + 0.5 * dt)) if moving else 0.0)
-        bed_rhs(q, dq, w, co, G, div, heat, floor, dim, dx, acc0, par)
+        bed_rhs(q, dq, w, co, G, div, heat, floor, dim, dx, acc0, par, parallel)
         f0 = _floor_mean(floor)
         q1[:] = q
         _combine(q, q1, dq, dt, 0.0, 1.0)
-        bed_rhs(q1, dq, w, co, G, div, heat, floor, dim, dx, acc1, par)
+        bed_rhs(q1, dq, w, co, G, div, heat, floor, dim, dx, acc1, par, parallel)
         f1 = _floor_mean(floor)
         q2[:] = q1
         _combine(q, q2, dq, dt, 0.75, 0.25)
-        bed_rhs(q2, dq, w, co, G, div, heat, floor, dim, dx, acc2, par)
+        bed_rhs(q2, dq, w, co, G, div, heat, floor, dim, dx, acc2, par, parallel)
         f2 = _floor_mean(floor)
         _combine(q, q2, dq, dt, 1.0 / 3.0, 2.0 / 3.0)
         q[:] = q2
@@ -635,6 +721,19 @@ class EulerianBed:
     STEP_CHUNK_CELL_STEPS = 1 << 22
     """Cell-steps per compiled call (about 1-4 s): Ctrl-C and SIGTERM are handled between calls."""
 
+    PARALLEL_MIN_CELLS = 512
+    """Grids of at least this many cells step on numba's threads (:func:`bed_advance`'s
+    ``parallel``; the same numbers bit for bit), smaller ones (the column) on one.  Measured on
+    this project's 2-core VM (one-off runs of ``bench/bench_bed_eulerian.py``'s thread test,
+    2026-12-05): on two threads a 4 × 4 × 49 grid (784 cells) steps 1.3-2.0x faster with numba's
+    tbb, workqueue and omp layers, a 2 × 2 × 49 grid (196 cells) 1.1x, 0.6x and 2.0x."""
+
+    @property
+    def parallel(self) -> bool:
+        """True if :meth:`advance` steps on numba's threads (more than one, and a grid of at least
+        :attr:`PARALLEL_MIN_CELLS` cells)."""
+        return numba.get_num_threads() > 1 and self.q[RHO].size >= self.PARALLEL_MIN_CELLS
+
     def advance(self, t0, t1, moving=True):
         """Steps from t0 to t1 [s] (the floor moving unless ``moving`` is False); returns the mean
         floor force over the interval [N] (the floor's stress, mean over the columns, times the
@@ -642,10 +741,11 @@ class EulerianBed:
         time and the cell."""
         s = self.setup
         chunk = max(1, self.STEP_CHUNK_CELL_STEPS // self.q[RHO].size)
+        parallel = self.parallel
         t, impulse = float(t0), 0.0
         while True:
             t, imp = bed_advance(self.q, t, float(t1), self.dim, self.dx, self.cfl, self.par, s.gravity, s.amplitude,
-                                 s.omega, moving, self.named["e_d"], self.work, self.counters, chunk)
+                                 s.omega, moving, self.named["e_d"], self.work, self.counters, chunk, parallel)
             impulse += imp
             if t >= t1 or self.counters[1]:
                 break
