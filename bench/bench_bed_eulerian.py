@@ -12,9 +12,11 @@ grids' wall time over its.
 
 Then the threads (``--threads-lateral``, default 32: a 32 × 32 × 49 grid at 2 cells per d):
 two copies of that bed stepped over the same ``--threads-repeats`` spans of
-``--threads-time`` s (interleaved, span by span), one serially on one thread and one with the right-hand side's parallel
-passes on two; ns per cell-stage of each (the fastest span), the parallel efficiency
-t_serial / (2 t_parallel), and whether the two states are equal bit for bit.
+``--threads-time`` s (interleaved, span by span), one serially on one thread and one with the
+right-hand side's parallel passes on two (whatever the grid's size against
+``EulerianBed.PARALLEL_MIN_CELLS``); ns per cell-stage of each (the median over the spans), the
+parallel efficiency t_serial / (2 t_parallel) (the median over the spans, and its range), the
+threading layer, and whether the two states are equal bit for bit.
 Writes the key ``bed_eulerian_step`` into the JSON file (merged with what is there).  Machine-
 dependent: wall times of this machine, whatever else it is doing.
 """
@@ -54,6 +56,8 @@ def _time_threads(setup, cells_per_d, lateral, span, repeats):
     if n_threads < 2:
         return {"skipped": f"numba has {n_threads} thread(s) here"}
     beds = [EulerianBed(setup, 3, cells_per_d, lateral, 0.05) for _ in range(2)]
+    beds[0].PARALLEL_MIN_CELLS = 1 << 62                      # serial on one thread
+    beds[1].PARALLEL_MIN_CELLS = 0                            # parallel on two, whatever the grid's size
     walls = {1: [], 2: []}
     steps = {1: [], 2: []}
     try:
@@ -61,7 +65,8 @@ def _time_threads(setup, cells_per_d, lateral, span, repeats):
             numba.set_num_threads(threads)
             bed.apply_velocity_jump(setup.amplitude * setup.omega)
             bed.advance(0.0, 1e-5)                            # warm-up (and compile)
-            assert bed.parallel is (threads == 2)
+            if bed.parallel is not (threads == 2):
+                raise RuntimeError("the thread test's beds did not take the serial / parallel paths")
         t = 1e-5
         for _ in range(repeats):                              # the two interleaved, span by span
             for bed, threads in zip(beds, (1, 2)):
@@ -75,11 +80,14 @@ def _time_threads(setup, cells_per_d, lateral, span, repeats):
     finally:
         numba.set_num_threads(n_threads)
     cells = beds[0].q[0].size
-    ns = {k: 1e9 * min(w / (n * 3 * cells) for w, n in zip(walls[k], steps[k])) for k in (1, 2)}
+    per = {k: [1e9 * w / (n * 3 * cells) for w, n in zip(walls[k], steps[k])] for k in (1, 2)}
+    pairs = [a / (2.0 * b) for a, b in zip(per[1], per[2])]            # each span's efficiency
     return {"grid_shape": list(beds[0].shape), "cells": cells, "span_s": span, "repeats": repeats,
             "steps": steps[1], "wall_s_serial_1t": walls[1], "wall_s_parallel_2t": walls[2],
-            "ns_per_cell_stage_serial_1t": ns[1], "ns_per_cell_stage_parallel_2t": ns[2],
-            "parallel_efficiency_2t": ns[1] / (2.0 * ns[2]), "threading_layer": numba.threading_layer(),
+            "ns_per_cell_stage_serial_1t": float(np.median(per[1])),
+            "ns_per_cell_stage_parallel_2t": float(np.median(per[2])),
+            "parallel_efficiency_2t": float(np.median(pairs)), "parallel_efficiency_2t_range": [min(pairs), max(pairs)],
+            "threading_layer": numba.threading_layer(),
             "bit_for_bit": bool(np.array_equal(beds[0].q, beds[1].q)) and steps[1] == steps[2]}
 
 
@@ -104,7 +112,7 @@ def main(argv=None):
                     help="the thread test's cells across the box (default 32)")
     ap.add_argument("--threads-time", type=positive_float, default=1e-4,
                     help="simulated seconds per timed span of the thread test (default 1e-4)")
-    ap.add_argument("--threads-repeats", type=positive_int, default=3, help="timed spans (default 3)")
+    ap.add_argument("--threads-repeats", type=positive_int, default=5, help="timed spans (default 5)")
     args = ap.parse_args(argv)
     if not 2 <= args.threads_lateral <= 256:
         ap.error(f"--threads-lateral {args.threads_lateral} is outside the valid range [2, 256]")
@@ -138,9 +146,10 @@ def main(argv=None):
     if "skipped" in th:
         print(f"threads: skipped ({th['skipped']})")
     else:
+        lo, hi = th["parallel_efficiency_2t_range"]
         print(f"Eulerian 3-D {tuple(th['grid_shape'])}: {th['ns_per_cell_stage_serial_1t']:.0f} ns per cell-stage serial "
               f"(1 thread), {th['ns_per_cell_stage_parallel_2t']:.0f} parallel (2 threads, {th['threading_layer']}): "
-              f"efficiency {th['parallel_efficiency_2t']:.2f}, bit for bit {th['bit_for_bit']}")
+              f"efficiency {th['parallel_efficiency_2t']:.2f} ({lo:.2f}-{hi:.2f}), bit for bit {th['bit_for_bit']}")
     merge_json(args.json, "bed_eulerian_step", out)
 
 

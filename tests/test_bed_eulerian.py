@@ -55,7 +55,7 @@ def test_compiled_kernels_equal_the_numpy_twin(shape):
     dq = np.zeros_like(q)
     work = B.work_arrays(q.shape)
     floor = work[8]
-    B.bed_rhs(q, dq, *work[3:8], floor, dim, dx, -9.81, arr, False)
+    B.bed_rhs(q, dq, *work[3:8], floor, work[9], dim, dx, -9.81, arr, False)
     for c in range(6):
         scale = np.abs(ref[c]).max()
         if scale == 0.0:
@@ -72,7 +72,7 @@ def test_compiled_kernels_equal_the_numpy_twin(shape):
     # the parallel passes: the serial numbers bit for bit
     dq_p = np.full_like(q, np.nan)
     work_p = B.work_arrays(q.shape)
-    B.bed_rhs(q, dq_p, *work_p[3:8], work_p[8], dim, dx, -9.81, arr, True)
+    B.bed_rhs(q, dq_p, *work_p[3:8], work_p[8], work_p[9], dim, dx, -9.81, arr, True)
     assert np.array_equal(dq_p, dq) and np.array_equal(work_p[8], floor)
 
 

@@ -52,7 +52,10 @@ Threads: on a grid of at least :attr:`EulerianBed.PARALLEL_MIN_CELLS` cells (and
 one numba thread) the right-hand side's cell, column and line passes run over their planes and
 lines in parallel (:func:`bed_rhs`); every cell's numbers are computed by one thread in the
 serial order, so the results are the serial ones bit for bit (tested).  The time-step bound, the
-stages' sums and the post-step pass stay serial (a few % of a step, ``bench/bench_bed_eulerian.py``).
+stages' sums and the post-step pass stay serial.  The parallel passes keep their scratch in the
+work arrays: arrays allocated inside them were not freed (numba), nor was the memory of every
+parallel launch under numba's tbb layer, which the package therefore ranks last
+(:mod:`bsrflow._numba_threads`).
 """
 
 from __future__ import annotations
@@ -75,6 +78,8 @@ N_FIELDS = 6
 PHI_MIN = 1e-3
 """Below this solid fraction no viscous stress and no conduction (mean free path d/(6√2φg0) > 40 d)."""
 SQRT_PI = math.sqrt(math.pi)
+SCRATCH = 68
+"""Floats of one scratch row of :func:`bed_rhs` (a face's outputs, the previous face's, _face's 46)."""
 
 
 @numba.njit(cache=True, inline="always")
@@ -194,8 +199,8 @@ def _face(w, co, G, axis, i, j, k, NX, NY, NZ, dx, par, out, sc):
     """Fluxes at the face between cell (i, j, k) and the next cell along ``axis`` (indices may be
     ghosts: periodic sides, mirrored in z).  out (11): the six conserved fields' fluxes (HLLE
     minus the viscous stress, plus the conduction), the face velocity, the heating row, the
-    viscous normal stress, the HLLE normal momentum flux.  sc: scratch (46), allocated once per
-    line by the caller (allocating per face cost most of the step)."""
+    viscous normal stress, the HLLE normal momentum flux.  sc: scratch (46), part of the
+    caller's scratch row for its plane or line (allocating per face cost most of the step)."""
     d, m, k1, k2, c_cap, rho_tiny, e, rho_s = par[0], par[1], par[2], par[3], par[4], par[5], par[6], par[7]
     # the four cells along the axis: l-1, l, r, r+1
     rr4 = sc[0:4]
@@ -299,17 +304,19 @@ def _face(w, co, G, axis, i, j, k, NX, NY, NZ, dx, par, out, sc):
 
 
 @numba.njit(cache=True, inline="always")
-def _rhs_columns_plane(dq, w, co, G, div, heat, floor, dim, dx, par, i):
+def _rhs_columns_plane(dq, w, co, G, div, heat, floor, scratch, dim, dx, par, i):
     """The gradients of plane x = i (:func:`_gradients_plane`), then its vertical lines' faces:
     dq, div and heat of its cells set to the vertical terms, ``floor`` its floor stresses.  (A
-    vertical face needs the gradients of its own column only.)"""
+    vertical face needs the gradients of its own column only.)  ``scratch[i]``: the plane's
+    scratch row (no allocation inside the parallel loops: numba leaked arrays allocated there,
+    about 80 kB per step of a 4 × 4 × 49 grid, and the steps slowed down as the heap grew)."""
     _, NX, NY, NZ = w.shape
     i = np.int64(i)                       # (a prange index may be unsigned: keep the arithmetic integer)
     _gradients_plane(w, G, dx, dim, i)
     inv = 1.0 / dx[2]
-    out = np.empty(11)
-    prev = np.empty(11)
-    sc = np.empty(46)
+    out = scratch[i, 0:11]
+    prev = scratch[i, 11:22]
+    sc = scratch[i, 22:SCRATCH]
     for j in range(NY):
         # vertical line: faces k − ½ for k = 0 … NZ (face k between cells k − 1 and k)
         for k in range(NZ + 1):
@@ -327,16 +334,17 @@ def _rhs_columns_plane(dq, w, co, G, div, heat, floor, dim, dx, par, i):
 
 
 @numba.njit(cache=True, inline="always")
-def _rhs_line(dq, w, co, G, div, heat, dx, par, axis, p):
+def _rhs_line(dq, w, co, G, div, heat, scratch, dx, par, axis, p):
     """Line p of the horizontal ``axis`` (0: x, 1: y; the lines numbered (other horizontal index)
-    × NZ + k): its faces' terms added to dq, div and heat of its cells."""
+    × NZ + k): its faces' terms added to dq, div and heat of its cells (``scratch[p]``: the
+    line's scratch row)."""
     _, NX, NY, NZ = w.shape
     p = np.int64(p)                       # (a prange index may be unsigned: keep the arithmetic integer)
     nA = NX if axis == 0 else NY
     inv_h = 1.0 / dx[axis]
-    out = np.empty(11)
-    prev = np.empty(11)
-    sc = np.empty(46)
+    out = scratch[p, 0:11]
+    prev = scratch[p, 11:22]
+    sc = scratch[p, 22:SCRATCH]
     jb = p // NZ
     kk = p - jb * NZ
     for ia in range(nA + 1):
@@ -373,60 +381,60 @@ def _rhs_sources_plane(dq, w, co, div, heat, dim, accel, e_w, inv_z, i):
 
 
 @numba.njit(cache=True)
-def _rhs_serial(q, dq, w, co, G, div, heat, floor, dim, dx, accel, par):
+def _rhs_serial(q, dq, w, co, G, div, heat, floor, scratch, dim, dx, accel, par):
     """:func:`bed_rhs`'s passes, one after the other: cells, columns, horizontal lines, sources."""
     _, NX, NY, NZ = q.shape
     for i in range(NX):
         _cell_pass_plane(q, w, co, i, par[5], par[7], par[0], par[6], par[8])
     for i in range(NX):
-        _rhs_columns_plane(dq, w, co, G, div, heat, floor, dim, dx, par, i)
+        _rhs_columns_plane(dq, w, co, G, div, heat, floor, scratch, dim, dx, par, i)
     for axis in range(dim - 1):
         for p in range(NY * NZ if axis == 0 else NX * NZ):
-            _rhs_line(dq, w, co, G, div, heat, dx, par, axis, p)
+            _rhs_line(dq, w, co, G, div, heat, scratch, dx, par, axis, p)
     for i in range(NX):
         _rhs_sources_plane(dq, w, co, div, heat, dim, accel, par[9], 1.0 / dx[2], i)
 
 
 @numba.njit(cache=True, parallel=True)
-def _columns_parallel(dq, w, co, G, div, heat, floor, dim, dx, par):
+def _columns_parallel(dq, w, co, G, div, heat, floor, scratch, dim, dx, par):
     """:func:`_rhs_columns_plane` of every plane, in parallel."""
     for i in prange(w.shape[1]):
-        _rhs_columns_plane(dq, w, co, G, div, heat, floor, dim, dx, par, i)
+        _rhs_columns_plane(dq, w, co, G, div, heat, floor, scratch, dim, dx, par, i)
 
 
 @numba.njit(cache=True, parallel=True)
-def _lines_parallel(dq, w, co, G, div, heat, dx, par, axis):
+def _lines_parallel(dq, w, co, G, div, heat, scratch, dx, par, axis):
     """:func:`_rhs_line` of every line of the horizontal ``axis``, in parallel."""
     _, NX, NY, NZ = w.shape
     n_lines = NZ * (NY if axis == 0 else NX)
     for p in prange(n_lines):
-        _rhs_line(dq, w, co, G, div, heat, dx, par, axis, p)
+        _rhs_line(dq, w, co, G, div, heat, scratch, dx, par, axis, p)
 
 
 @numba.njit(cache=True)
-def _rhs_parallel(q, dq, w, co, G, div, heat, floor, dim, dx, accel, par):
+def _rhs_parallel(q, dq, w, co, G, div, heat, floor, scratch, dim, dx, accel, par):
     """:func:`_rhs_serial`'s passes, the cells', the columns' and the lines' over their planes
     (lines) in parallel (a pass writes only its own plane's or line's cells, and reads what the
     passes before it wrote); the sources, a small part, serial."""
     _cell_pass_parallel(q, w, co, par[5], par[7], par[0], par[6], par[8])
-    _columns_parallel(dq, w, co, G, div, heat, floor, dim, dx, par)
+    _columns_parallel(dq, w, co, G, div, heat, floor, scratch, dim, dx, par)
     for axis in range(dim - 1):
-        _lines_parallel(dq, w, co, G, div, heat, dx, par, axis)
+        _lines_parallel(dq, w, co, G, div, heat, scratch, dx, par, axis)
     for i in range(w.shape[1]):
         _rhs_sources_plane(dq, w, co, div, heat, dim, accel, par[9], 1.0 / dx[2], i)
 
 
 @numba.njit(cache=True)
-def bed_rhs(q, dq, w, co, G, div, heat, floor, dim, dx, accel, par, parallel):
+def bed_rhs(q, dq, w, co, G, div, heat, floor, scratch, dim, dx, accel, par, parallel):
     """dq = L(q) (module docstring; work arrays w (6, …), co (4, …), G (9, …), div, heat (…)),
     floor (NX, NY): the floor's stress [Pa] per column.  par: d, m, k1, k2, c_cap, rho_tiny, e,
     rho_s, phi_min, e_w.  ``parallel``: the planes (and the horizontal lines) on numba's threads;
     every cell's numbers are computed by one thread in the serial order, so the result is the
     serial one bit for bit (tested)."""
     if parallel:
-        _rhs_parallel(q, dq, w, co, G, div, heat, floor, dim, dx, accel, par)
+        _rhs_parallel(q, dq, w, co, G, div, heat, floor, scratch, dim, dx, accel, par)
     else:
-        _rhs_serial(q, dq, w, co, G, div, heat, floor, dim, dx, accel, par)
+        _rhs_serial(q, dq, w, co, G, div, heat, floor, scratch, dim, dx, accel, par)
 
 
 @numba.njit(cache=True)
@@ -577,10 +585,10 @@ def bed_advance(q, t, t_stop, dim, dx, cfl, par, gravity, amp, omega, moving, e_
     (t, ∫ floor stress dt [Pa s]: the stages' floor stresses, mean over the columns, weighted
     1/6, 1/6, 2/3).  Floor acceleration ϑ'' = −aω² sin ωt while ``moving`` (else 0); counters:
     [steps, status, where] (status 1 negative density, 2 non-finite, as
-    :func:`bed_stable_dt`).  work: (q1, q2, dq, w (6), co (4), G (9), div, heat, floor) from
+    :func:`bed_stable_dt`).  work: (q1, q2, dq, w (6), co (4), G (9), div, heat, floor, scratch) from
     :func:`work_arrays`.  ``parallel``: the right-hand side's passes on numba's threads
     (:func:`bed_rhs`; the same numbers bit for bit), the rest of the step serial."""
-    q1, q2, dq, w, co, G, div, heat, floor = work
+    q1, q2, dq, w, co, G, div, heat, floor, scratch = work
     d, m, rho_s, rho_tiny = par[0], par[1], par[7], par[5]
     impulse = 0.0
     n = 0
@@ -596,15 +604,15 @@ def bed_advance(q, t, t_stop, dim, dx, cfl, par, gravity, amp, omega, moving, e_
         acc0 = -gravity + (amp * omega * omega * math.sin(omega * t) if moving else 0.0)
         acc1 = -gravity + (amp * omega * omega * math.sin(omega * (t + dt)) if moving else 0.0)
         acc2 = -gravity + (amp * omega * omega * math.sin(omega * (t + 0.5 * dt)) if moving else 0.0)
-        bed_rhs(q, dq, w, co, G, div, heat, floor, dim, dx, acc0, par, parallel)
+        bed_rhs(q, dq, w, co, G, div, heat, floor, scratch, dim, dx, acc0, par, parallel)
         f0 = _floor_mean(floor)
         q1[:] = q
         _combine(q, q1, dq, dt, 0.0, 1.0)
-        bed_rhs(q1, dq, w, co, G, div, heat, floor, dim, dx, acc1, par, parallel)
+        bed_rhs(q1, dq, w, co, G, div, heat, floor, scratch, dim, dx, acc1, par, parallel)
         f1 = _floor_mean(floor)
         q2[:] = q1
         _combine(q, q2, dq, dt, 0.75, 0.25)
-        bed_rhs(q2, dq, w, co, G, div, heat, floor, dim, dx, acc2, par, parallel)
+        bed_rhs(q2, dq, w, co, G, div, heat, floor, scratch, dim, dx, acc2, par, parallel)
         f2 = _floor_mean(floor)
         _combine(q, q2, dq, dt, 1.0 / 3.0, 2.0 / 3.0)
         q[:] = q2
@@ -617,10 +625,13 @@ def bed_advance(q, t, t_stop, dim, dx, cfl, par, gravity, amp, omega, moving, e_
 
 
 def work_arrays(shape):
-    """The stage and work arrays of :func:`bed_advance` for fields of shape (6, NX, NY, NZ)."""
+    """The stage and work arrays of :func:`bed_advance` for fields of shape (6, NX, NY, NZ): the
+    last, the scratch rows of :func:`bed_rhs` (one per plane or line)."""
     cells = shape[1:]
+    nx, ny, nz = cells
     return (np.zeros(shape), np.zeros(shape), np.zeros(shape), np.zeros(shape), np.zeros((4,) + cells),
-            np.zeros((9,) + cells), np.zeros(cells), np.zeros(cells), np.zeros(cells[:2]))
+            np.zeros((9,) + cells), np.zeros(cells), np.zeros(cells), np.zeros(cells[:2]),
+            np.zeros((max(nx, ny * nz, nx * nz), SCRATCH)))
 
 
 def scheme_params(setup):
@@ -724,9 +735,13 @@ class EulerianBed:
     PARALLEL_MIN_CELLS = 512
     """Grids of at least this many cells step on numba's threads (:func:`bed_advance`'s
     ``parallel``; the same numbers bit for bit), smaller ones (the column) on one.  Measured on
-    this project's 2-core VM (one-off runs of ``bench/bench_bed_eulerian.py``'s thread test,
-    2026-12-05): on two threads a 4 × 4 × 49 grid (784 cells) steps 1.3-2.0x faster with numba's
-    tbb, workqueue and omp layers, a 2 × 2 × 49 grid (196 cells) 1.1x, 0.6x and 2.0x."""
+    this project's 2-core VM, otherwise idle (one-off runs of the thread test of
+    ``NUMBA_THREADING_LAYER=L python bench/bench_bed_eulerian.py --threads-lateral N
+    --threads-time 1e-3``, 2026-12-05): on two threads a 4 × 4 × 49 grid (784 cells) stepped
+    1.3-2.0x as fast as on one with numba's tbb, workqueue and omp layers, a 2 × 2 × 49 grid
+    (196 cells) 1.1x, 0.6x and 2.0x.  With another process busy on one of the two cores, the
+    4 × 4 × 49 grid stepped about 0.8x as fast on two threads as on one (omp and workqueue, a
+    one-off run)."""
 
     @property
     def parallel(self) -> bool:

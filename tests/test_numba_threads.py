@@ -1,0 +1,42 @@
+"""The package's choice of numba's threading layer (bsrflow._numba_threads): not tbb, whose every
+parallel launch kept memory here, unless the user's environment chose."""
+
+import os
+import resource
+import subprocess
+import sys
+
+import numba
+import numpy as np
+import pytest
+
+import bsrflow
+from bsrflow._numba_threads import PRIORITY, prefer_leak_free_layers
+
+
+@numba.njit(parallel=True, cache=False)
+def _touch(a):
+    for i in numba.prange(a.shape[0]):
+        a[i] += 1.0
+
+
+@pytest.mark.skipif(bool(os.environ.get("NUMBA_THREADING_LAYER") or os.environ.get("NUMBA_THREADING_LAYER_PRIORITY")),
+                    reason="the user's environment chose numba's threading layer")
+def test_the_package_prefers_a_layer_that_keeps_the_memory_flat():
+    assert bsrflow.NUMBA_THREADING_LAYER_PRIORITY == PRIORITY == ["omp", "workqueue", "tbb"]
+    a = np.zeros(64)
+    _touch(a)
+    assert numba.threading_layer() in ("omp", "workqueue")
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss            # [kB] on Linux
+    for _ in range(5000):                                                  # tbb kept ~7 kB per launch here: 35 MB
+        _touch(a)
+    assert a[0] == 5001.0
+    assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 8 * 1024
+
+
+def test_a_user_choice_of_layer_stands(monkeypatch):
+    monkeypatch.setenv("NUMBA_THREADING_LAYER", "workqueue")
+    assert prefer_leak_free_layers() is None
+    out = subprocess.run([sys.executable, "-c", "import bsrflow; print(bsrflow.NUMBA_THREADING_LAYER_PRIORITY)"],
+                         capture_output=True, text=True, check=True, env=dict(os.environ, NUMBA_THREADING_LAYER_PRIORITY="tbb omp workqueue"))
+    assert out.stdout.strip() == "None"
