@@ -157,20 +157,38 @@ def test_mass_is_conserved_and_a_lateral_mode_keeps_the_mass():
     assert np.abs(u[:, bed.q[0] > 0.1 * bed.named["rho_c"]]).max() > 1e-4      # lateral flow [m/s]
 
 
+@pytest.mark.skipif(B.numba.config.NUMBA_NUM_THREADS < 2, reason="numba has one thread here: no concurrency to test")
 def test_parallel_stepping_gives_the_serial_numbers_bit_for_bit(monkeypatch):
     """A 3-D bed with a lateral mode (every pass sees varying planes and lines), stepped through
-    its first landing with the passes on numba's threads and one after the other: the same
-    state, floor force and steps bit for bit; the grid's own choice follows PARALLEL_MIN_CELLS."""
+    its first landing with the passes on two numba threads and one after the other: the same
+    state, floor force and steps bit for bit.  The grid's choice (PARALLEL_MIN_CELLS, here
+    forced both ways) reaches the compiled loop (its ``parallel`` argument recorded)."""
     s = BedSetup(gamma=4.0, cycles=1, n_spheres=600)
     beds = [B.EulerianBed(s, 3, cells_per_d=2, lateral_cells=4, perturbation=0.05) for _ in range(2)]
-    for bed, parallel in zip(beds, (False, True)):
-        monkeypatch.setattr(bed, "PARALLEL_MIN_CELLS", 0 if parallel else 10 ** 9)
-        monkeypatch.setattr(B.numba, "get_num_threads", lambda: 2)
-        assert bed.parallel is parallel
-    f_serial, f_parallel = (_run(bed, 0.03) for bed in beds)
+    assert beds[0].q[0].size >= B.EulerianBed.PARALLEL_MIN_CELLS          # the default takes this grid parallel
+    seen = []
+    stepper = B.bed_advance
+
+    def recording(*args):
+        seen.append(args[-1])
+        return stepper(*args)
+
+    monkeypatch.setattr(B, "bed_advance", recording)
+    n0 = B.numba.get_num_threads()
+    B.numba.set_num_threads(2)
+    try:
+        forces = []
+        for bed, parallel in zip(beds, (False, True)):
+            bed.PARALLEL_MIN_CELLS = 0 if parallel else 10 ** 9
+            assert bed.parallel is parallel
+            seen.clear()
+            forces.append(_run(bed, 0.03))
+            assert set(seen) == {parallel}
+    finally:
+        B.numba.set_num_threads(n0)
     assert beds[0].counters[0] == beds[1].counters[0] > 1000
-    assert np.count_nonzero(f_serial) > 5
-    assert np.array_equal(f_serial, f_parallel) and np.array_equal(beds[0].q, beds[1].q)
+    assert np.count_nonzero(forces[0]) > 5
+    assert np.array_equal(forces[0], forces[1]) and np.array_equal(beds[0].q, beds[1].q)
     assert beds[0].lateral_spread() > 1e-4 * s.diameter
 
 
