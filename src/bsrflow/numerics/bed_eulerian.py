@@ -380,21 +380,6 @@ def _rhs_sources_plane(dq, w, co, div, heat, dim, accel, e_w, inv_z, i):
         dq[ENER, i, j, 0] -= (1.0 - e_w) * co[3, i, j, 0] * math.sqrt(2.0 * th0 / math.pi) * inv_z
 
 
-@numba.njit(cache=True)
-def _rhs_serial(q, dq, w, co, G, div, heat, floor, scratch, dim, dx, accel, par):
-    """:func:`bed_rhs`'s passes, one after the other: cells, columns, horizontal lines, sources."""
-    _, NX, NY, NZ = q.shape
-    for i in range(NX):
-        _cell_pass_plane(q, w, co, i, par[5], par[7], par[0], par[6], par[8])
-    for i in range(NX):
-        _rhs_columns_plane(dq, w, co, G, div, heat, floor, scratch, dim, dx, par, i)
-    for axis in range(dim - 1):
-        for p in range(NY * NZ if axis == 0 else NX * NZ):
-            _rhs_line(dq, w, co, G, div, heat, scratch, dx, par, axis, p)
-    for i in range(NX):
-        _rhs_sources_plane(dq, w, co, div, heat, dim, accel, par[9], 1.0 / dx[2], i)
-
-
 @numba.njit(cache=True, parallel=True)
 def _columns_parallel(dq, w, co, G, div, heat, floor, scratch, dim, dx, par):
     """:func:`_rhs_columns_plane` of every plane, in parallel."""
@@ -412,29 +397,30 @@ def _lines_parallel(dq, w, co, G, div, heat, scratch, dx, par, axis):
 
 
 @numba.njit(cache=True)
-def _rhs_parallel(q, dq, w, co, G, div, heat, floor, scratch, dim, dx, accel, par):
-    """:func:`_rhs_serial`'s passes, the cells', the columns' and the lines' over their planes
-    (lines) in parallel (a pass writes only its own plane's or line's cells, and reads what the
-    passes before it wrote); the sources, a small part, serial."""
-    _cell_pass_parallel(q, w, co, par[5], par[7], par[0], par[6], par[8])
-    _columns_parallel(dq, w, co, G, div, heat, floor, scratch, dim, dx, par)
-    for axis in range(dim - 1):
-        _lines_parallel(dq, w, co, G, div, heat, scratch, dx, par, axis)
-    for i in range(w.shape[1]):
-        _rhs_sources_plane(dq, w, co, div, heat, dim, accel, par[9], 1.0 / dx[2], i)
-
-
-@numba.njit(cache=True)
 def bed_rhs(q, dq, w, co, G, div, heat, floor, scratch, dim, dx, accel, par, parallel):
     """dq = L(q) (module docstring; work arrays w (6, …), co (4, …), G (9, …), div, heat (…)),
-    floor (NX, NY): the floor's stress [Pa] per column.  par: d, m, k1, k2, c_cap, rho_tiny, e,
-    rho_s, phi_min, e_w.  ``parallel``: the planes (and the horizontal lines) on numba's threads;
+    floor (NX, NY): the floor's stress [Pa] per column, scratch: :func:`work_arrays`' rows.  par:
+    d, m, k1, k2, c_cap, rho_tiny, e, rho_s, phi_min, e_w.  The passes, in order: the cells
+    (primitives and coefficients), the columns (gradients, vertical faces), the horizontal lines,
+    the sources.  ``parallel``: the first three over their planes (lines) on numba's threads (a
+    pass writes only its own plane's or line's cells and reads what the passes before it wrote);
     every cell's numbers are computed by one thread in the serial order, so the result is the
     serial one bit for bit (tested)."""
+    _, NX, NY, NZ = q.shape
     if parallel:
-        _rhs_parallel(q, dq, w, co, G, div, heat, floor, scratch, dim, dx, accel, par)
+        _cell_pass_parallel(q, w, co, par[5], par[7], par[0], par[6], par[8])
+        _columns_parallel(dq, w, co, G, div, heat, floor, scratch, dim, dx, par)
+        for axis in range(dim - 1):
+            _lines_parallel(dq, w, co, G, div, heat, scratch, dx, par, axis)
     else:
-        _rhs_serial(q, dq, w, co, G, div, heat, floor, scratch, dim, dx, accel, par)
+        _cell_pass(q, w, co, par[5], par[7], par[0], par[6], par[8])
+        for i in range(NX):
+            _rhs_columns_plane(dq, w, co, G, div, heat, floor, scratch, dim, dx, par, i)
+        for axis in range(dim - 1):
+            for p in range(NZ * (NY if axis == 0 else NX)):
+                _rhs_line(dq, w, co, G, div, heat, scratch, dx, par, axis, p)
+    for i in range(NX):
+        _rhs_sources_plane(dq, w, co, div, heat, dim, accel, par[9], 1.0 / dx[2], i)
 
 
 @numba.njit(cache=True)
@@ -830,7 +816,7 @@ class EulerianBed:
 
     def load_fields(self, fields):
         """Restore :attr:`fields` (ValueError naming the first that is missing or of another shape)."""
-        from .bed_lagrangian import restore_named_fields
+        from .controller import restore_named_fields
         restore_named_fields(self.fields, fields)
 
     def output_schema(self) -> dict:

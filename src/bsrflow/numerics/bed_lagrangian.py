@@ -46,6 +46,7 @@ import numpy as np
 from ..physics.granular_bed import (conductivity, constitutive_numpy, dissipation, pressure_and_viscosity,
                                     wall_loss)
 from ..physics.packing import history_update, packing_force, packing_force_numpy
+from .controller import restore_named_fields
 
 __all__ = ["GranularBedColumn", "bed_step", "bed_advance", "stable_dt", "bed_step_numpy", "floor_reaction", "static_bed", "run_bed",
            "BedResult"]
@@ -341,18 +342,6 @@ def _compile_bed():
     bed_advance(zf, np.zeros(5), np.zeros(4), np.zeros(4), 0.0, 1e-6, np.array([stable_dt(
         zf, np.zeros(4), 1.0, 1000.0, 1e-3, 0.9, 0.4, 10.0)]), 1.0, 1000.0, 1e-3, 0.9, 0.6, 1.0, 1.0, 9.81, 0.0, 1.0,
         False, c, 0.4, 10.0, 0.9, 0.9, 10)
-
-
-def restore_named_fields(target: dict, fields: dict) -> None:
-    """Copy the checkpoint's ``fields`` into the arrays of ``target`` (a discretisation's named
-    state), all or none: ValueError naming the first that is missing or of another shape."""
-    for name, arr in target.items():
-        v = fields.get(name)
-        if v is None or np.shape(v) != arr.shape:
-            raise ValueError(f"state field {name}: {'missing' if v is None else np.shape(v)}, expected "
-                             f"{arr.shape}")
-    for name, arr in target.items():
-        arr[...] = np.asarray(fields[name], dtype=float)
 
 
 def static_bed(setup):

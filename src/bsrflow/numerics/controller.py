@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["drive_events"]
+__all__ = ["drive_events", "restore_named_fields"]
 
 
 def drive_events(t_start, t_end, save_times, jumps, extra_event_times, *, advance, apply_jump, save,
@@ -46,3 +46,16 @@ def drive_events(t_start, t_end, save_times, jumps, extra_event_times, *, advanc
             apply_jump(jump_at[ev])
         if ev in save_set:
             save(ev)
+
+
+def restore_named_fields(target: dict, fields: dict) -> None:
+    """Copy a checkpoint's named ``fields`` into the arrays of ``target`` (a discretisation's
+    named state, its ``fields``), all or none: ValueError (one line) naming the first that is
+    missing or of another shape.  Every discretisation's ``load_fields``."""
+    for name, arr in target.items():
+        v = fields.get(name)
+        if v is None or np.shape(v) != arr.shape:
+            raise ValueError(f"state field {name}: {'missing' if v is None else np.shape(v)}, expected "
+                             f"{arr.shape}")
+    for name, arr in target.items():
+        arr[...] = np.asarray(fields[name], dtype=float)

@@ -101,15 +101,10 @@ class _Base:
         raise NotImplementedError
 
     def load_fields(self, fields: dict):
-        """Set the state from named fields (:attr:`fields`; a checkpoint's); ValueError (one line)
-        when one is missing or has the wrong shape."""
-        for k, v in self.fields.items():
-            if k not in fields:
-                raise ValueError(f"field {k} is missing")
-            a = np.asarray(fields[k], dtype=float)
-            if a.shape != v.shape:
-                raise ValueError(f"field {k}: shape {a.shape}, expected {v.shape}")
-            v[...] = a
+        """Set the state from named fields (:attr:`fields`; a checkpoint's), all or none; ValueError
+        (one line) when one is missing or has the wrong shape."""
+        from .controller import restore_named_fields
+        restore_named_fields(self.fields, fields)
 
     def apply_velocity_jump(self, dv):
         raise NotImplementedError

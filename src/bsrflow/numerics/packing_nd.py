@@ -611,15 +611,10 @@ class EulerianPackingND:
         return {name: self.q[r].reshape(shape) for name, r in rows}
 
     def load_fields(self, fields: dict):
-        """Set the state from named fields (:attr:`fields`; a checkpoint's); ValueError (one line)
-        when one is missing or has the wrong shape."""
-        for k, v in self.fields.items():
-            if k not in fields:
-                raise ValueError(f"field {k} is missing")
-            a = np.asarray(fields[k], dtype=float)
-            if a.shape != v.shape:
-                raise ValueError(f"field {k}: shape {a.shape}, expected {v.shape}")
-            v[...] = a
+        """Set the state from named fields (:attr:`fields`; a checkpoint's), all or none; ValueError
+        (one line) when one is missing or has the wrong shape."""
+        from .controller import restore_named_fields
+        restore_named_fields(self.fields, fields)
 
     def set_tracers(self, positions):
         """Set the tracers from user-layout positions (n_tr, dim) [m] (floor frame): ValueError
