@@ -95,6 +95,15 @@ def test_layer_config_runs_into_netcdf_and_vtk(tmp_path, run_layer_file):
     ("[layer]\nkind = \"granular_bed\"\nn_cells = 2\n", "layer.n_cells"),
     ("[layer]\nkind = \"granular_bed\"\n[output]\nvtk = true\n", "output.vtk"),
     ("[layer]\nkind = \"granular_bed\"\n[tracers]\npositions = [[0.01]]\n", "tracers"),
+    # kind = "granular_bed_eulerian" takes tracers (2026-12-05): z in 1-D, (x, z), (x, y, z), inside its grid
+    ("[layer]\nkind = \"granular_bed_eulerian\"\ndimension = 2\n[tracers]\npositions = [[0.01]]\n",
+     "tracers.positions: must be a non-empty list of 2-element lists"),
+    ("[layer]\nkind = \"granular_bed_eulerian\"\ndimension = 1\n[tracers]\npositions = [[0.01, 0.02]]\n",
+     "tracers.positions: must be a non-empty list of 1-element lists of finite numbers [m] ([z] per tracer)"),
+    ("[layer]\nkind = \"granular_bed_eulerian\"\ndimension = 3\n[tracers]\npositions = [[0.01, 0.1, 0.01]]\n",
+     "tracers.positions: tracer 0 at [0.01, 0.1, 0.01] m is outside the box"),
+    ("[layer]\nkind = \"granular_bed_eulerian\"\ndimension = 1\n[tracers]\npositions = [[5.0]]\n",
+     "tracers.positions: tracer 0 at [5.0] m is outside the box"),
     ("[layer]\nkind = \"granular_bed\"\nbox_width = 0.1\n", "layer.box_width"),
     ("[layer]\nkind = \"granular_bed\"\nstiffness = 1\n", "layer.stiffness"),          # overlap 2.8 d
     ("[layer]\nkind = \"granular_bed\"\noutput_height = 0.02\n", "layer.output_height"),   # below the bed

@@ -147,15 +147,18 @@ def test_stiffness_option_of_the_nd_law():
     assert full_steps[0] / reduced_steps[0] == pytest.approx(phi ** -0.5, rel=0.05)
 
 
-@pytest.mark.parametrize("dim", [2, 3])
-def test_tracer_velocity_matches_numpy(dim):
+@pytest.mark.parametrize("dim, cells", [(2, "cubic"), (3, "cubic"), (2, "flat"), (3, "flat")])
+def test_tracer_velocity_matches_numpy(dim, cells):
     """The compiled interpolation of the tracers' velocity equals its NumPy twin to 1e-12 at
-    points everywhere in the box: near the floor, the lid, across the periodic sides, in vacuum."""
-    from bsrflow.numerics.packing_nd import tracer_velocity
+    points everywhere in the box: near the floor, the lid, across the periodic sides, in vacuum;
+    on cubic cells (the packing solver's) and on cells wider than tall (the bed's Eulerian grid)."""
     from bsrflow.numerics.packing_reference import tracer_velocity_numpy
+    from bsrflow.numerics.tracers import tracer_velocity
     rng = np.random.default_rng(dim)
     NX, NY, NZ = 5, (1 if dim == 2 else 4), 7
-    dx = 0.002
+    h = 0.002
+    dxs = np.array([h, h, h]) if cells == "cubic" else np.array([3.1 * h, 2.3 * h, h])
+    dx = h
     q = np.zeros((5, NX, NY, NZ))
     q[0] = rng.uniform(0.0, 800.0, (NX, NY, NZ))
     q[0, :, :, 5] = 0.0                                    # a vacuum layer, and material again in the top cell
@@ -163,16 +166,17 @@ def test_tracer_velocity_matches_numpy(dim):
     if dim == 2:
         q[2] = 0.0
     lo = np.array([0.0, 0.0, 0.0])
-    pts = np.stack([rng.uniform(0, NX * dx, 40), rng.uniform(0, NY * dx, 40) if dim == 3 else np.zeros(40),
+    hx, hy = dxs[0], dxs[1]
+    pts = np.stack([rng.uniform(0, NX * hx, 40), rng.uniform(0, NY * hy, 40) if dim == 3 else np.zeros(40),
                     rng.uniform(0, NZ * dx, 40)], axis=1)
     pts[:4, 2] = [0.0, 0.2 * dx, NZ * dx, 6.9 * dx]          # the floor, the lid (the top cell is not empty)
     pts[8:10, 2] = 5.5 * dx                                  # a vacuum cell's centre
-    pts[4:8, 0] = [0.0, NX * dx, 0.1 * dx, (NX - 0.1) * dx]
-    ref = tracer_velocity_numpy(q, pts, lo, dx, 1e-9)
+    pts[4:8, 0] = [0.0, NX * hx, 0.1 * hx, (NX - 0.1) * hx]
+    ref = tracer_velocity_numpy(q, pts, lo, dxs, 1e-9)
     out = np.zeros(3)
     scale = np.max(np.abs(ref))
     for p, r in zip(pts, ref):
-        tracer_velocity(q, p[0], p[1], p[2], lo, dx, 1e-9, out)
+        tracer_velocity(q, p[0], p[1], p[2], lo, dxs, 1e-9, out)
         np.testing.assert_allclose(out, r, rtol=0, atol=1e-12 * scale)
     assert np.all(ref[pts[:, 2] == 0.0, 2] == 0.0)         # the floor's mirror: no vertical velocity
     assert np.all(ref[pts[:, 2] == NZ * dx, 2] == 0.0)     # the lid's mirror: no vertical velocity
@@ -182,13 +186,14 @@ def test_tracer_velocity_matches_numpy(dim):
 
 def _tracer_steps(q, tr, dt, n, lo, box, has_y):
     """n SSP-RK3 steps of the tracers alone on a fixed state q (the three stages on q)."""
-    from bsrflow.numerics.packing_nd import _tracer_combine, _tracer_stage
+    from bsrflow.numerics.tracers import tracer_combine, tracer_stage
     vt = np.zeros((3, tr.shape[0], 3))
     top = lo[2] + box[2]
+    dx = np.full(3, box[0] / q.shape[1])
     for _ in range(n):
         for st in range(3):
-            _tracer_stage(q, tr, vt, st, dt, lo, top, box[0] / q.shape[1], 1e-12)
-        _tracer_combine(tr, vt, dt, lo, box, top, has_y)
+            tracer_stage(q, tr, vt, st, dt, lo, top, dx, 1e-12)
+        tracer_combine(tr, vt, dt, lo, box, top, has_y)
     return tr
 
 

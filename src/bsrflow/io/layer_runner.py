@@ -37,12 +37,15 @@ the d/10 bins) with, by default, the grid's fields as ``state_solid_fraction``,
 ``state_velocity_x/_y/_z``, ``state_theta``, ``state_delta_max`` on the dimensions ``grid_x``,
 ``grid_y``, ``grid_z`` (the cell sizes in the attribute ``grid_cell_size_m``) and
 ``state_floor_force``; checkpoints of its conserved fields; ``[output] vtk`` writes the grid's
-cells (solid fraction, velocity, granular temperature) for ParaView; no tracers yet (refused in
-one line).
+cells (solid fraction, velocity, granular temperature) for ParaView.  Its ``[tracers]`` are z
+(1-D), [x, z] (2-D) or [x, y, z] (3-D) inside the grid ([0, L] across, up to the lid), placed on
+the settled bed at t = 0 and moved by :func:`bsrflow.numerics.bed_eulerian.bed_advance`; the
+file's ``tracer_x`` (``tracer_y``), ``tracer_z`` are the grid's axes, not the column's.
 
 Tracers (optional) are moved with the interpolated velocity by the scheme's tracer integrator
-(:meth:`bsrflow.numerics.solver_nd.SimulationND.run`; for the packing bed the fields' SSP-RK3
-stages with the mass-weighted interpolation of :func:`bsrflow.numerics.packing_nd.tracer_velocity`)
+(:meth:`bsrflow.numerics.solver_nd.SimulationND.run`; for the packing bed and the granular bed's
+Eulerian grid the fields' SSP-RK3 stages with the mass-weighted interpolation of
+:func:`bsrflow.numerics.tracers.tracer_velocity`)
 and written as ``tracer_x`` (``tracer_y``), ``tracer_z`` (lab frame) to the netCDF file;
 checkpoints carry them.
 
@@ -233,9 +236,6 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
     state = out.get("state", kind in BED_KINDS)
     if not isinstance(state, bool):
         raise ConfigError("output.state", f"{state!r} must be true or false")
-    if kind == "granular_bed_eulerian":
-        if "tracers" in data:
-            raise ConfigError("tracers", "not an option of kind = \"granular_bed_eulerian\" (not yet)")
     if kind == "granular_bed":
         if vtk:
             raise ConfigError("output.vtk", "true: not an option of kind = \"granular_bed\" (a horizontally uniform "
@@ -863,19 +863,27 @@ def _tracer_positions(table, setup):
         if key != "positions":
             raise ConfigError(f"tracers.{key}", "unknown key; valid: positions")
     if "positions" not in table:
-        raise ConfigError("tracers.positions", "missing: a list of [x, z] (2-D) or [x, y, z] (3-D) positions [m]")
+        raise ConfigError("tracers.positions", "missing: a list of [x, z] (2-D) or [x, y, z] (3-D) positions [m] "
+                          "([z] for a granular_bed_eulerian column)")
     pos = table["positions"]
-    dim = setup.dim
+    from ..physics.granular_bed import EulerianBedSetup
+    if isinstance(setup, EulerianBedSetup):       # (z in 1-D, (x, z), (x, y, z); from the floor and the side)
+        dim = setup.dimension
+        hi = np.array(setup.grid_upper())
+        lo = np.zeros(dim)
+    else:
+        dim = setup.dim
+        grid = setup.grid()
+        lo, hi = np.asarray(grid.lower, float), np.asarray(grid.upper, float)
+    layout = {1: "[z]", 2: "[x, z]", 3: "[x, y, z]"}[dim]
     ok = (isinstance(pos, list) and len(pos) > 0
           and all(isinstance(p, list) and len(p) == dim
                   and all(isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c) for c in p)
                   for p in pos))
     if not ok:
         raise ConfigError("tracers.positions", f"must be a non-empty list of {dim}-element lists of finite "
-                          f"numbers [m] ({'[x, z]' if dim == 2 else '[x, y, z]'} per tracer)")
+                          f"numbers [m] ({layout} per tracer)")
     arr = np.array(pos, dtype=float)
-    grid = setup.grid()
-    lo, hi = np.asarray(grid.lower, float), np.asarray(grid.upper, float)
     for k, p in enumerate(arr):
         if np.any(p < lo) or np.any(p > hi):
             raise ConfigError("tracers.positions", f"tracer {k} at {p.tolist()} m is outside the box "
@@ -945,16 +953,21 @@ class _LayerBase(RunJob):
         """(field schema, source) of the state fields the file holds too (``[output] state``), or None."""
         return None
 
+    def _tracer_axes(self):
+        """The axes of the tracers' positions in the file (None: the grid's)."""
+        return None
+
     def new_writer(self):
         from .netcdf import NetCDFWriterND
         return NetCDFWriterND(self.out, self.grid, self._floor, self._attrs(), expected_snapshots=self.save_times.size,
-                              n_tracers=self.n_tracers, per_depth=self.per_depth, state=self._state())
+                              n_tracers=self.n_tracers, per_depth=self.per_depth, state=self._state(),
+                              tracer_axes=self._tracer_axes())
 
     def reopen_writer(self, t_checkpoint):
         from .netcdf import NetCDFWriterND
         return NetCDFWriterND.resume(self.out, t_checkpoint, self.grid, self._floor,
                                      expected_snapshots=self.save_times.size, n_tracers=self.n_tracers,
-                                     per_depth=self.per_depth, state=self._state())
+                                     per_depth=self.per_depth, state=self._state(), tracer_axes=self._tracer_axes())
 
     def _restored_tracers(self, ck):
         if self.tracers is None:
@@ -1144,6 +1157,8 @@ class GranularBedJob(_ControllerJob):
     def integrate(self, t0, save_times, checkpoint_times, observers, progress, on_checkpoint):
         if not self.restored:
             self.disc.settle()
+            if self.tracers is not None:           # placed on the settled bed, at t = 0
+                self.disc.set_tracers(self.tracers)
         self.disc.t = t0
         super().integrate(t0, save_times, checkpoint_times, observers, progress, on_checkpoint)
 
@@ -1163,6 +1178,10 @@ class GranularBedJob(_ControllerJob):
             return None
         return self.disc.output_schema(), self.disc.output_fields
 
+    def _tracer_axes(self):
+        """The Eulerian grid's axes (its tracers' positions), not the file's column's."""
+        return self.disc.TRACER_AXES[self.disc.dim] if self.disc.name == "granular_bed_eulerian" else None
+
     def observers(self, writer, resumed_at):
         """The file, and for the Eulerian grid with ``[output] vtk`` its cells' fields in VTK
         (:meth:`bsrflow.numerics.bed_eulerian.EulerianBed.vtk_fields`) at every save."""
@@ -1170,7 +1189,7 @@ class GranularBedJob(_ControllerJob):
             return super().observers(writer, resumed_at)
         self.vtk_writer = _vtk_writer(self.vtk_stem, self.disc.vtk_grid(), resumed_at)
         vtk = self.vtk_writer
-        return [writer, lambda t, u, rho, tracers=None: vtk.write_fields(t, self.disc.vtk_fields())]
+        return [writer, lambda t, u, rho, tracers=None: vtk.write_fields(t, self.disc.vtk_fields(), tracers)]
 
 
 def _run_files(cfg: LayerConfig, out):

@@ -401,14 +401,16 @@ def _add_state_fields(state, schema, sizes, coords):
 _AXES = {1: ("z",), 2: ("x", "z"), 3: ("x", "y", "z")}
 
 
-def schema_nd(dim: int, n_tracers: int = 0, per_depth: bool = False) -> dict:
+def schema_nd(dim: int, n_tracers: int = 0, per_depth: bool = False, tracer_axes=None) -> dict:
     """Variables of an n-D run's file (:class:`NetCDFWriterND`), dim = 1 (axis z: a column),
     2 (x, z) or 3 (x, y, z; z vertical, from the floor): name -> (dims, units, long_name).  With tracers
     (``n_tracers`` > 0) also ``tracer`` (the index) and ``tracer_x`` (, ``tracer_y``),
     ``tracer_z`` (time, tracer) [m]: their positions, the height in the lab frame as the 1-D
     file's ``tracer_height``.  A 2-D run is either a planar continuum (the seed kernel's layers:
     ``rho`` in kg m-2, mass in kg) or, with ``per_depth``, a 3-D material uniform in y (the
-    packing bed: ``rho`` in kg m-3, mass and kinetic energy per metre of depth)."""
+    packing bed: ``rho`` in kg m-3, mass and kinetic energy per metre of depth).  ``tracer_axes``:
+    the tracers' axes when they are not the file's (the vibrated bed's Eulerian grid, whose file
+    is a column)."""
     axes = _AXES[dim]
     depth = per_depth and dim == 2
     per = "m-1" if depth else ""
@@ -424,7 +426,7 @@ def schema_nd(dim: int, n_tracers: int = 0, per_depth: bool = False) -> dict:
         out[f"u_{a}"] = (("time",) + axes, "m s-1", f"velocity component {a} relative to the floor")
     if n_tracers > 0:
         out["tracer"] = (("tracer",), "1", "tracer index")
-        for a in axes:
+        for a in (axes if tracer_axes is None else tracer_axes):
             out[f"tracer_{a}"] = (("time", "tracer"), "m", "tracer height (lab frame)" if a == "z"
                                   else f"tracer position {a}")
     out["floor"] = (("time",), "m", "floor position (lab frame)")
@@ -444,10 +446,11 @@ class NetCDFWriterND(NetCDFWriter):
 
     grid : :class:`bsrflow.numerics.grid_nd.GridND`; floor : ``floor(t) -> ϑ(t)`` [m];
     attrs, expected_snapshots : as for :class:`NetCDFWriter`; n_tracers : tracers per snapshot
-    (0: the file has no tracer variables)."""
+    (0: the file has no tracer variables); tracer_axes : their axes, when not the grid's (e.g.
+    ("x", "y", "z") for the 3-D bed whose file is a column)."""
 
     def __init__(self, path, grid, floor, attrs=None, expected_snapshots=None, n_tracers=0, per_depth=False,
-                 state=None):
+                 state=None, tracer_axes=None):
         self.path = os.fspath(path)
         self.grid = grid
         self.dim = int(grid.dim)
@@ -463,7 +466,8 @@ class NetCDFWriterND(NetCDFWriter):
         if self.n_tracers > 0:
             coords["tracer"] = np.arange(self.n_tracers, dtype=np.int32)
             sizes["tracer"] = self.n_tracers
-        schema = schema_nd(self.dim, self.n_tracers, per_depth)
+        self.tracer_axes = tuple(self.axes if tracer_axes is None else tracer_axes)
+        schema = schema_nd(self.dim, self.n_tracers, per_depth, self.tracer_axes)
         self.state = state
         if state is not None:
             _add_state_fields(state, schema, sizes, coords)
@@ -478,13 +482,13 @@ class NetCDFWriterND(NetCDFWriter):
 
     @classmethod
     def resume(cls, path, keep_before, grid, floor, expected_snapshots=None, n_tracers=0, per_depth=False,
-               state=None):
+               state=None, tracer_axes=None):
         """Reopen a partial n-D file, keep its snapshots with time < ``keep_before`` [s] (the
         grid, the number of tracers and the state fields must match) and return a writer that
         appends after them."""
         data, attrs = read_snapshots(path)
         w = cls(path, grid, floor, expected_snapshots=expected_snapshots, n_tracers=n_tracers, per_depth=per_depth,
-                state=state)
+                state=state, tracer_axes=tracer_axes)
         if ("tracer_z" in data) != (w.n_tracers > 0) or ("tracer" in data and data["tracer"].size != w.n_tracers):
             raise ValueError(f"{os.fspath(path)}: its tracers differ from this run's")
         for a in w.axes:
@@ -503,8 +507,9 @@ class NetCDFWriterND(NetCDFWriter):
         fl = float(self.floor(t))
         if self.n_tracers > 0:
             tr = np.asarray(tracers, dtype=float) if tracers is not None else None
-            if tr is None or tr.shape != (self.n_tracers, self.dim):
-                raise ValueError(f"{self.path}: expected tracers of shape ({self.n_tracers}, {self.dim}), got "
+            nt = len(self.tracer_axes)
+            if tr is None or tr.shape != (self.n_tracers, nt):
+                raise ValueError(f"{self.path}: expected tracers of shape ({self.n_tracers}, {nt}), got "
                                  f"{None if tr is None else tr.shape}")
         u = np.asarray(u, dtype=float)
         rho = np.asarray(rho, dtype=float)
@@ -515,7 +520,7 @@ class NetCDFWriterND(NetCDFWriter):
         for a, comp in zip(self.axes, u):
             row[f"u_{a}"] = comp.copy()
         if self.n_tracers > 0:
-            for k, a in enumerate(self.axes):
+            for k, a in enumerate(self.tracer_axes):
                 row[f"tracer_{a}"] = tr[:, k] + (fl if a == "z" else 0.0)
         self._add_state_row(row)
         return row

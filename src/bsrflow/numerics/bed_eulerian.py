@@ -69,6 +69,7 @@ from numba import prange
 from ..physics.granular_bed import bulk_viscosity, conductivity, g0_cs, kinetic_pressure, shear_viscosity
 from ..physics.packing import history_update
 from . import packing_kernels as pk
+from .tracers import tracer_combine, tracer_stage
 
 __all__ = ["EulerianBed", "run_eulerian_bed", "bed_rhs", "bed_post_step", "bed_stable_dt", "bed_advance",
            "kinetic_sound_speed", "scheme_params", "work_arrays", "N_FIELDS"]
@@ -566,18 +567,26 @@ def _floor_mean(floor):
 
 @numba.njit(cache=True)
 def bed_advance(q, t, t_stop, dim, dx, cfl, par, gravity, amp, omega, moving, e_d, work, counters, max_steps,
-                parallel):
+                parallel, tracers, box):
     """SSP-RK3 steps (Shu–Osher form) from t to exactly t_stop, at most ``max_steps``; returns
     (t, ∫ floor stress dt [Pa s]: the stages' floor stresses, mean over the columns, weighted
     1/6, 1/6, 2/3).  Floor acceleration ϑ'' = −aω² sin ωt while ``moving`` (else 0); counters:
     [steps, status, where] (status 1 negative density, 2 non-finite, as
     :func:`bed_stable_dt`).  work: (q1, q2, dq, w (6), co (4), G (9), div, heat, floor, scratch) from
     :func:`work_arrays`.  ``parallel``: the right-hand side's passes on numba's threads
-    (:func:`bed_rhs`; the same numbers bit for bit), the rest of the step serial."""
+    (:func:`bed_rhs`; the same numbers bit for bit), the rest of the step serial.  tracers
+    (n, 3) [m] (x, y, z, floor frame; n = 0 for none) move with the interpolated velocity by the
+    same stages (:mod:`bsrflow.numerics.tracers`: the stage states q, q1 = q + Δt L(q) and
+    q2 = (3q + q1 + Δt L(q1))/4 are the positions' stages x0, x0 + Δt v0, x0 + Δt (v0 + v1)/4);
+    box (3) the grid's extents [m] (lower corner 0)."""
     q1, q2, dq, w, co, G, div, heat, floor, scratch = work
     d, m, rho_s, rho_tiny = par[0], par[1], par[7], par[5]
     impulse = 0.0
     n = 0
+    has_tr = tracers.shape[0] > 0
+    vt = np.zeros((3, tracers.shape[0], 3))
+    lo = np.zeros(3)
+    top = box[2]
     while t < t_stop and n < max_steps:
         dt, status, where = bed_stable_dt(q, dim, dx, cfl, par, w, co)
         if status:
@@ -590,18 +599,26 @@ def bed_advance(q, t, t_stop, dim, dx, cfl, par, gravity, amp, omega, moving, e_
         acc0 = -gravity + (amp * omega * omega * math.sin(omega * t) if moving else 0.0)
         acc1 = -gravity + (amp * omega * omega * math.sin(omega * (t + dt)) if moving else 0.0)
         acc2 = -gravity + (amp * omega * omega * math.sin(omega * (t + 0.5 * dt)) if moving else 0.0)
+        if has_tr:
+            tracer_stage(q, tracers, vt, 0, dt, lo, top, dx, rho_tiny)
         bed_rhs(q, dq, w, co, G, div, heat, floor, scratch, dim, dx, acc0, par, parallel)
         f0 = _floor_mean(floor)
         q1[:] = q
         _combine(q, q1, dq, dt, 0.0, 1.0)
+        if has_tr:
+            tracer_stage(q1, tracers, vt, 1, dt, lo, top, dx, rho_tiny)
         bed_rhs(q1, dq, w, co, G, div, heat, floor, scratch, dim, dx, acc1, par, parallel)
         f1 = _floor_mean(floor)
         q2[:] = q1
         _combine(q, q2, dq, dt, 0.75, 0.25)
+        if has_tr:
+            tracer_stage(q2, tracers, vt, 2, dt, lo, top, dx, rho_tiny)
         bed_rhs(q2, dq, w, co, G, div, heat, floor, scratch, dim, dx, acc2, par, parallel)
         f2 = _floor_mean(floor)
         _combine(q, q2, dq, dt, 1.0 / 3.0, 2.0 / 3.0)
         q[:] = q2
+        if has_tr:
+            tracer_combine(tracers, vt, dt, lo, box, top, dim == 3)
         bed_post_step(q, dt, d, m, rho_s, e_d, rho_tiny)
         impulse += dt * (f0 / 6.0 + f1 / 6.0 + (2.0 / 3.0) * f2)
         t = t_stop if last else t + dt
@@ -656,9 +673,10 @@ class EulerianBed:
     :data:`~bsrflow.physics.granular_bed.MAX_PERTURBATION`.
     In 2-D the fields are those of a bed uniform in y (per unit depth: the 3-D values)."""
 
-    def __init__(self, setup, dim=1, cells_per_d=4, lateral_cells=1, perturbation=0.0, cfl=None):
+    def __init__(self, setup, dim=1, cells_per_d=4, lateral_cells=1, perturbation=0.0, cfl=None, tracers=None):
         """(For an :class:`~bsrflow.physics.granular_bed.EulerianBedSetup`, :meth:`from_setup`
-        takes the grid from the setup.)"""
+        takes the grid from the setup.)  ``tracers``: None or their positions (n, dim) [m]
+        (:meth:`set_tracers`)."""
         from ..physics.granular_bed import check_eulerian_grid, eulerian_vertical_cells
         from ..physics.motion import SinusoidalVibration
         from .bed_lagrangian import static_bed
@@ -701,11 +719,50 @@ class EulerianBed:
         self.t = 0.0
         self._floor_force = np.zeros(1)          # the last advance's mean floor force [N] (checkpointed)
         self._grid = None
+        self._box = np.array([nx * dh, ny * dh, nz * dz])
+        self.tracers = np.zeros((0, 3))
+        """Tracer positions [m] (floor frame) in the internal layout (n, 3): (x, y, z); y = 0 in
+        1-D and 2-D, x the column's centre in 1-D.  :meth:`tracer_positions` gives the user's."""
+        if tracers is not None:
+            self.set_tracers(tracers)
 
     @classmethod
-    def from_setup(cls, setup):
-        """The bed of an :class:`~bsrflow.physics.granular_bed.EulerianBedSetup` (its grid fields)."""
-        return cls(setup, setup.dimension, setup.cells_per_d, setup.lateral_cells, setup.perturbation)
+    def from_setup(cls, setup, tracers=None):
+        """The bed of an :class:`~bsrflow.physics.granular_bed.EulerianBedSetup` (its grid fields),
+        with ``tracers`` (:meth:`set_tracers`)."""
+        return cls(setup, setup.dimension, setup.cells_per_d, setup.lateral_cells, setup.perturbation,
+                   tracers=tracers)
+
+    TRACER_AXES = {1: ("z",), 2: ("x", "z"), 3: ("x", "y", "z")}
+    """The user layout of a tracer's position per dimension of the grid."""
+
+    def set_tracers(self, positions):
+        """Set the tracers from positions (n, dim) [m] in the user layout (:attr:`TRACER_AXES`: z in
+        1-D, (x, z) in 2-D, (x, y, z) in 3-D; floor frame), each inside the grid, [0, L] across the
+        periodic sides and [0, lid] in height; ValueError (one line) otherwise.  They move with the
+        cells' interpolated velocity (:func:`bed_advance`); the position across a side wraps."""
+        axes = self.TRACER_AXES[self.dim]
+        try:
+            p = np.asarray(positions, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"tracers: need an array of numbers of shape (n, {len(axes)}) [m] "
+                             f"({', '.join(axes)} per tracer)") from None
+        if p.ndim != 2 or p.shape[1] != len(axes) or p.shape[0] == 0:
+            raise ValueError(f"tracers: need positions of shape (n, {len(axes)}) [m] ({', '.join(axes)} per tracer), "
+                             f"got {p.shape}")
+        if not np.all(np.isfinite(p)):
+            raise ValueError("tracers: the positions must be finite numbers [m]")
+        box = self._box
+        hi = np.array([box[{"x": 0, "y": 1, "z": 2}[a]] for a in axes])
+        for k, pt in enumerate(p):
+            if np.any(pt < 0.0) or np.any(pt > hi):
+                raise ValueError(f"tracers: tracer {k} at {pt.tolist()} m is outside the grid "
+                                 f"[0, {hi.tolist()}] m ({', '.join(axes)})")
+        tr = np.zeros((p.shape[0], 3))
+        tr[:, 0] = 0.5 * box[0]
+        for c, a in enumerate(axes):
+            tr[:, {"x": 0, "y": 1, "z": 2}[a]] = p[:, c]
+        self.tracers = tr
 
     @property
     def shape(self):
@@ -746,7 +803,8 @@ class EulerianBed:
         t, impulse = float(t0), 0.0
         while True:
             t, imp = bed_advance(self.q, t, float(t1), self.dim, self.dx, self.cfl, self.par, s.gravity, s.amplitude,
-                                 s.omega, moving, self.named["e_d"], self.work, self.counters, chunk, parallel)
+                                 s.omega, moving, self.named["e_d"], self.work, self.counters, chunk, parallel,
+                                 self.tracers, self._box)
             impulse += imp
             if t >= t1 or self.counters[1]:
                 break
@@ -784,8 +842,10 @@ class EulerianBed:
         return self._grid
 
     def tracer_positions(self):
-        """None: no tracers on this grid (yet)."""
-        return None
+        """The tracers' positions (n, dim) [m] in the user layout (:attr:`TRACER_AXES`), floor
+        frame; (0, dim) without tracers."""
+        idx = [{"x": 0, "y": 1, "z": 2}[a] for a in self.TRACER_AXES[self.dim]]
+        return self.tracers[:, idx].copy()
 
     def observe(self):
         """(u (1, nz) [m/s], ρ (nz) [kg/m]) on the output column: the bed's mass per metre of

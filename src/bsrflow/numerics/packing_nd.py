@@ -59,6 +59,7 @@ from numba import prange
 from ..physics.interaction import Interaction
 from ..physics.packing import BilinearStiffness, history_update
 from . import packing_kernels as pk
+from .tracers import tracer_combine, tracer_stage, tracer_velocity  # noqa: F401 (tracer_velocity: the docs' name)
 
 __all__ = ["PackingLawND", "EulerianPackingND", "run_packing_nd", "fv_rhs_nd", "verify_cases"]
 
@@ -343,93 +344,6 @@ def _speed_and_top(q, rho_tiny):
     return umax_i.max(), near / total if total > 0.0 else 0.0, 0, -1
 
 
-@numba.njit(cache=True)
-def tracer_velocity(q, px, py, pz, lo, dx, rho_tiny, out):
-    """Velocity [m/s] at the point (px, py, pz) [m] (floor frame; py ignored in 2-D, NY = 1) into
-    ``out`` (3): the trilinear (bilinear in 2-D) interpolation of the momentum divided by that of
-    the density over the surrounding cell centres, u = Σ w ρu / Σ w ρ, so that empty cells do not
-    pull a tracer at the bed's edge towards rest; 0 where Σ w ρ ≤ ``rho_tiny``.  Periodic sides;
-    below the lowest and above the highest cell centres the floor's and the lid's mirror cells
-    (ρ even, u_z odd), so u_z is 0 at the floor.  NumPy twin:
-    :func:`bsrflow.numerics.packing_reference.tracer_velocity_numpy`."""
-    _, NX, NY, NZ = q.shape
-    sx = (px - lo[0]) / dx - 0.5
-    i0 = int(math.floor(sx))
-    fx = sx - i0
-    j0, fy, nb = 0, 0.0, 1
-    if NY > 1:
-        sy = (py - lo[1]) / dx - 0.5
-        j0 = int(math.floor(sy))
-        fy = sy - j0
-        nb = 2
-    sz = (pz - lo[2]) / dx - 0.5
-    k0 = int(math.floor(sz))
-    fz = sz - k0
-    wr = 0.0
-    wx = 0.0
-    wy = 0.0
-    wz = 0.0
-    for a in range(2):
-        wa = fx if a == 1 else 1.0 - fx
-        i = ((i0 + a) % NX + NX) % NX
-        for b in range(nb):
-            wb = 1.0 if nb == 1 else (fy if b == 1 else 1.0 - fy)
-            j = ((j0 + b) % NY + NY) % NY
-            for c in range(2):
-                wc = fz if c == 1 else 1.0 - fz
-                k = k0 + c
-                sgn = 1.0
-                if k < 0:
-                    k = -1 - k
-                    sgn = -1.0
-                elif k >= NZ:
-                    k = 2 * NZ - 1 - k
-                    sgn = -1.0
-                k = min(max(k, 0), NZ - 1)
-                w = wa * wb * wc
-                wr += w * q[RHO, i, j, k]
-                wx += w * q[MX, i, j, k]
-                wy += w * q[MY, i, j, k]
-                wz += w * sgn * q[MZ, i, j, k]
-    if wr > rho_tiny:
-        out[0], out[1], out[2] = wx / wr, wy / wr, wz / wr
-    else:
-        out[0], out[1], out[2] = 0.0, 0.0, 0.0
-
-
-@numba.njit(cache=True)
-def _tracer_stage(q, tr, vt, st, dt, lo, top, dx, rho_tiny):
-    """Stage ``st`` (0, 1, 2) of the tracers' SSP-RK3 (the fields' tableau): the velocity vt[st]
-    at the stage position x0, x0 + Δt v0, x0 + Δt (v0 + v1)/4 on the stage state q."""
-    buf = np.zeros(3)
-    p = np.empty(3)
-    for n in range(tr.shape[0]):
-        for cc in range(3):
-            p[cc] = tr[n, cc]
-            if st == 1:
-                p[cc] += dt * vt[0, n, cc]
-            elif st == 2:
-                p[cc] += 0.25 * dt * (vt[0, n, cc] + vt[1, n, cc])
-        p[2] = min(max(p[2], lo[2]), top)
-        tracer_velocity(q, p[0], p[1], p[2], lo, dx, rho_tiny, buf)
-        for cc in range(3):
-            vt[st, n, cc] = buf[cc]
-
-
-@numba.njit(cache=True)
-def _tracer_combine(tr, vt, dt, lo, box, top, has_y):
-    """x += Δt (v0 + v1 + 4 v2)/6; periodic sides wrapped, the height kept in [floor, lid]."""
-    for n in range(tr.shape[0]):
-        for cc in range(3):
-            tr[n, cc] += dt * ((vt[0, n, cc] + vt[1, n, cc]) / 6.0 + (2.0 / 3.0) * vt[2, n, cc])
-        for cc in range(2):
-            if cc == 1 and not has_y:
-                continue
-            rel = tr[n, cc] - lo[cc]
-            tr[n, cc] = lo[cc] + (rel - box[cc] * math.floor(rel / box[cc]))
-        tr[n, 2] = min(max(tr[n, 2], lo[2]), top)
-
-
 @numba.njit(cache=True, parallel=True)
 def _stage1(qf, q1f, i1f, dqf, dt):
     """k1 = Δt L(q), q1 = q + k1 (flat arrays)."""
@@ -462,12 +376,13 @@ def fv_advance_nd(q, t, t_stop, dim, dx, cfl, c_bound, d, m, k1, k2, rho_tiny, r
     counters: [steps, status, where]; status 1 negative density, 2 non-finite, 3 more than
     ``top_fraction`` of the mass in the top 6 layers of cells (the 1-D column stops on any
     material there; see :attr:`EulerianPackingND.top_fraction`).  tracers (n, 3) [m] (floor
-    frame; n = 0 for none) move with the interpolated velocity (:func:`tracer_velocity`) by the
+    frame; n = 0 for none) move with the interpolated velocity (:func:`bsrflow.numerics.tracers.tracer_velocity`) by the
     same SSP-RK3 stages; lo (3) the grid's lower corner, box (3) its extents [m].  work: the
     stage arrays (5, *q.shape), allocated once by the caller (q1, q2, dq and the two increments;
     every element is written before it is read)."""
     _, NX, NY, NZ = q.shape
     vt = np.zeros((3, tracers.shape[0], 3))
+    dxv = np.full(3, dx)                    # (cubic cells: the tracers' per-axis cell sizes)
     top = lo[2] + box[2]
     q1, q2, dq, inc1, inc2 = work[0], work[1], work[2], work[3], work[4]
     qf, q1f, q2f, dqf = q.reshape(-1), q1.reshape(-1), q2.reshape(-1), dq.reshape(-1)
@@ -488,19 +403,19 @@ def fv_advance_nd(q, t, t_stop, dim, dx, cfl, c_bound, d, m, k1, k2, rho_tiny, r
             last = True
         has_tr = tracers.shape[0] > 0
         if has_tr:
-            _tracer_stage(q, tracers, vt, 0, dt, lo, top, dx, rho_tiny)
+            tracer_stage(q, tracers, vt, 0, dt, lo, top, dxv, rho_tiny)
         fv_rhs_nd(q, dq, dim, dx, -gravity - fn(t, params)[2], d, m, k1, k2, c_bound, rho_tiny)
         _stage1(qf, q1f, i1f, dqf, dt)
         if has_tr:
-            _tracer_stage(q1, tracers, vt, 1, dt, lo, top, dx, rho_tiny)
+            tracer_stage(q1, tracers, vt, 1, dt, lo, top, dxv, rho_tiny)
         fv_rhs_nd(q1, dq, dim, dx, -gravity - fn(t + dt, params)[2], d, m, k1, k2, c_bound, rho_tiny)
         _stage2(qf, q2f, i1f, i2f, dqf, dt)
         if has_tr:
-            _tracer_stage(q2, tracers, vt, 2, dt, lo, top, dx, rho_tiny)
+            tracer_stage(q2, tracers, vt, 2, dt, lo, top, dxv, rho_tiny)
         fv_rhs_nd(q2, dq, dim, dx, -gravity - fn(t + 0.5 * dt, params)[2], d, m, k1, k2, c_bound, rho_tiny)
         _stage3(qf, i1f, i2f, dqf, dt)
         if has_tr:
-            _tracer_combine(tracers, vt, dt, lo, box, top, dim == 3)
+            tracer_combine(tracers, vt, dt, lo, box, top, dim == 3)
         fv_post_step_nd(q, d, m, rho_floor)
         t = t_stop if last else t + dt
         counters[0] += 1
@@ -521,7 +436,7 @@ class EulerianPackingND:
     law : :class:`PackingLawND`; motion : an applied motion (:mod:`bsrflow.physics.motion`);
     gravity g [m/s²]; cfl in (0, 0.5/n] (default 0.4/n); rho0 : initial density (*grid.shape)
     [kg/m^n], at rest, δ_max = 0; tracers : None or (n_tr, dim) positions [m] (floor frame,
-    inside the grid; dim >= 2), moved with the interpolated velocity (:func:`tracer_velocity`)
+    inside the grid; dim >= 2), moved with the interpolated velocity (:func:`bsrflow.numerics.tracers.tracer_velocity`)
     by the fields' SSP-RK3 stages.  ``supports`` lists the options it takes (``tracers`` in
     2-D / 3-D: a column's tracers are the 1-D formulations' mass coordinates)."""
 

@@ -377,10 +377,11 @@ def nonlocal_verlet_step(x, v, hist, weights, t, dt, accel, mu, ppd, d, k1, k2):
 
 
 # ------------------------------------------------------------------------------------------------
-# n-D tracers (numerics/packing_nd.py, tracer_velocity)
+# n-D tracers (numerics/tracers.py, tracer_velocity)
 # ------------------------------------------------------------------------------------------------
 def tracer_velocity_numpy(q, points, lo, dx, rho_tiny):
-    """Velocities (n, 3) [m/s] at ``points`` (n, 3) [m] on the n-D state q (5, NX, NY, NZ): the
+    """Velocities (n, 3) [m/s] at ``points`` (n, 3) [m] on the n-D state q (ρ, ρu_x, ρu_y, ρu_z
+    first, NX, NY, NZ), cells of size ``dx`` [m] (one number, or one per axis): the
     interpolated momentum over the interpolated density, u = Σ w ρu / Σ w ρ, with the trilinear
     weights w of the surrounding cell centres (bilinear when NY = 1), periodic sides, mirror cells
     (ρ even, ρu_z odd) below the lowest and above the highest cell centre; 0 where Σ w ρ ≤

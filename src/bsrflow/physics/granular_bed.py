@@ -467,6 +467,12 @@ class EulerianBedSetup(BedSetup):
                              f"[{self.rest_height + 2 * dz:.4g}, 100] m: the grid of whole cells below it would end "
                              f"at {top:.4g} m, the bed at rest is {self.rest_height:.4g} m high")
 
+    def grid_upper(self) -> tuple:
+        """The grid's upper corner [m] in the tracers' layout (z in 1-D, (x, z) in 2-D, (x, y, z) in
+        3-D; the lower corner is 0): the box's side L across, the lid in height."""
+        lid = eulerian_vertical_cells(self, self.cells_per_d) * (self.diameter / self.cells_per_d)
+        return (float(self.side),) * (self.dimension - 1) + (float(lid),)
+
     def _check_steps(self):
         """Refuse more than :data:`MAX_CELL_STEPS` cell-steps or :data:`MAX_STEPS` steps of the grid
         (naming ``cells_per_d``), in place of the Lagrangian cells' bound."""
