@@ -255,6 +255,9 @@ def test_compare_bed_command_writes_the_schema(tmp_path, capsys):
                                         (["--gammas", "3", "3.0000000001"], "twice"),
                                         (["--reference", "/nonexistent"], "--reference"),
                                         (["--reference", "EMPTY_PARAMS"], "--reference"),
+                                        (["--reference", "EMPTY_CSV"], "flight_vs_gamma.csv: not a CSV of the "
+                                                                       "LIGGGHTS data folder"),
+                                        (["--reference", "HEADER_ONLY_CSV"], "(no rows under a header)"),
                                         (["--eulerian-cells-per-d", "2"], "--eulerian-cells-per-d needs --eulerian"),
                                         (["--eulerian", "1", "--eulerian-lateral-cells", "4"],
                                          "--eulerian-lateral-cells applies to --eulerian 2 or 3"),
@@ -267,7 +270,9 @@ def test_compare_bed_command_writes_the_schema(tmp_path, capsys):
                                         (["--eulerian", "3", "--eulerian-lateral-cells", "256", "--eulerian-cells-per-d",
                                           "8"], "--eulerian-cells-per-d 8 is outside the valid range at these settings"),
                                         (["--eulerian", "2", "--eulerian-perturbation", "1"],
-                                         "--eulerian-perturbation 1.0 is outside the valid range")])
+                                         "--eulerian-perturbation 1.0 is outside the valid range"),
+                                        (["--eulerian", "2", "--eulerian-perturbation", "0.06"],
+                                         "--eulerian-perturbation 0.06 is outside the valid range at --eulerian 2: [0, 0.05]")])
 def test_compare_bed_bad_input_exits_2(argv, text, capsys, tmp_path):
     """Refused in one line before any run, and the --figures folder is not created."""
     if "EMPTY_PARAMS" in argv:                  # the csv and results/ there, params.json without its keys
@@ -277,6 +282,15 @@ def test_compare_bed_bad_input_exits_2(argv, text, capsys, tmp_path):
         (tmp_path / "params.json").write_text("{}")
         (tmp_path / "results").mkdir()
         argv = ["--reference", str(tmp_path)]
+    if "EMPTY_CSV" in argv or "HEADER_ONLY_CSV" in argv:     # a copy with flight_vs_gamma.csv emptied (a fuzzing
+        import shutil                                          # review: a traceback before)
+        from bsrflow.analysis.compare_bed import REFERENCE
+        ref = tmp_path / "ref"
+        (ref / "results").mkdir(parents=True)            # (only the files read before the runs: the
+        shutil.copy(REFERENCE / "params.json", ref)        # folder may hold GBs of LIGGGHTS work files)
+        lines = (REFERENCE / "flight_vs_gamma.csv").read_text().splitlines(keepends=True)
+        (ref / "flight_vs_gamma.csv").write_text("" if "EMPTY_CSV" in argv else "".join(lines[:2]))
+        argv = ["--reference", str(ref)]
     figs = tmp_path / "figs"
     assert main(["compare-bed", "--no-extra", "--figures", str(figs)] + argv) == 2
     err = capsys.readouterr().err

@@ -95,6 +95,16 @@ def test_layer_config_runs_into_netcdf_and_vtk(tmp_path, run_layer_file):
     ("[layer]\nkind = \"granular_bed\"\nn_cells = 2\n", "layer.n_cells"),
     ("[layer]\nkind = \"granular_bed\"\n[output]\nvtk = true\n", "output.vtk"),
     ("[layer]\nkind = \"granular_bed\"\n[tracers]\npositions = [[0.01]]\n", "tracers"),
+    # checks across fields name the field the config gives and its range there (2026-12-05, a fuzzing review:
+    # they blamed stiffness, cfl or n_spheres, fields not given, or gave an empty range)
+    ("[layer]\nkind = \"granular_bed\"\ncycles = 10000000\n",
+     "layer.cycles: cycles = 10000000 is outside the valid range at these settings (at most 19076 with the other"),
+    ("[layer]\nkind = \"granular_bed\"\nside = 100.0\n",
+     "layer.side: side = 100.0 is outside the valid range at these settings (at most 0.2028 with the other"),
+    ("[layer]\nkind = \"granular_bed_eulerian\"\ndimension = 1\nn_spheres = 10000000\n",
+     "layer.n_spheres: n_spheres = 10000000 is outside the valid range at these settings (at most 1768442 with"),
+    ("[layer]\nkind = \"granular_bed_eulerian\"\ndimension = 1\ncells_per_d = 1\ncycles = 10000000\n",
+     "layer.cycles: cycles = 10000000 is outside the valid range at these settings (at most"),
     # kind = "granular_bed_eulerian" takes tracers (2026-12-05): z in 1-D, (x, z), (x, y, z), inside its grid
     ("[layer]\nkind = \"granular_bed_eulerian\"\ndimension = 2\n[tracers]\npositions = [[0.01]]\n",
      "tracers.positions: must be a non-empty list of 2-element lists"),

@@ -55,6 +55,9 @@ def _bad_path(kind, bad, tmp):
 @pytest.fixture
 def no_work(monkeypatch):
     """Replace everything that computes, reads inputs or starts a cluster by a test failure."""
+    # modules that bind a patched function by name at import: imported before the patches, or a
+    # later test would find the fake in them (compare_packing's run_bsr_column, found 2026-12-05)
+    import bsrflow.analysis.compare_packing  # noqa: F401
     import bsrflow.analysis.compare as compare
     import bsrflow.analysis.compare_bed as compare_bed
     from bsrflow.numerics.solver_nd import SimulationND
@@ -112,6 +115,35 @@ def test_bad_output_path_one_line_exit_2_before_any_work(tmp_path, capsys, no_wo
     assert not (tmp_path / "no_such_folder").exists()   # missing folders are never created
     assert sorted(os.listdir(tmp_path)) == ["a_dir", "a_file", "c.toml", "d.dump", "layer.toml", "r.nc"]
     assert os.listdir(tmp_path / "a_dir") == []
+
+
+FILE_OUTPUTS = [o for o in OUTPUTS if o[2] == "file"]
+
+
+@pytest.mark.parametrize("argv, option, kind", FILE_OUTPUTS,
+                         ids=[" ".join(o[0][:1] + [o[1] or "PATH"]) for o in FILE_OUTPUTS])
+def test_a_file_name_without_room_for_its_side_files_is_refused_before_any_work(tmp_path, capsys, no_work, argv,
+                                                                                 option, kind):
+    """A legal file name too long for the checkpoint and temporary files written beside it
+    (``<out>.ckpt.tmp<pid>``) is refused up front, naming the option and the valid length (a fuzzing
+    review: a 255-character ``--out`` failed after the work, with exit code 1)."""
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[run]\nt_end = 0.1\n")
+    layer = tmp_path / "layer.toml"
+    layer.write_text("[layer]\ndim = 2\n")
+    nc, dump = tmp_path / "r.nc", tmp_path / "d.dump"
+    nc.write_bytes(b"x")
+    dump.write_text("x")
+    path = str(tmp_path / ("a" * 245 + ".out"))
+    args = [a.format(cfg=cfg, nc=nc, dump=dump, layer=layer) for a in argv] + [path]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"bsrflow {argv[0]}: error: {option or 'PATH'}: "), err
+    from bsrflow.io.paths import SIDE_FILE_SUFFIX_ROOM, _name_max
+    limit = _name_max(str(tmp_path)) - SIDE_FILE_SUFFIX_ROOM               # 255 - 19 on common file systems
+    assert limit < 249
+    assert f"the file name is 249 characters long; the valid range is 1 to {limit}" in err[0], err[0]
+    assert sorted(os.listdir(tmp_path)) == ["c.toml", "d.dump", "layer.toml", "r.nc"]
 
 
 def test_every_output_option_of_every_command_is_covered():

@@ -179,7 +179,19 @@ FRICTION_RUNS = "N2000_L13d_hooke_mu0.5"
 
 
 def _read_csv(path):
-    return np.genfromtxt(path, delimiter=",", names=True, skip_header=1)
+    """A CSV of the LIGGGHTS data folder (a comment line, the header, the rows) as a structured
+    array; ValueError (one line, naming the file) when it is empty or not such a CSV."""
+    import warnings
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")             # (numpy warns "Empty input file" and goes on)
+            data = np.genfromtxt(path, delimiter=",", names=True, skip_header=1)
+    except (IndexError, ValueError, StopIteration, UserWarning) as exc:
+        raise ValueError(f"{path}: not a CSV of the LIGGGHTS data folder (a comment line, a header and rows; "
+                         f"{type(exc).__name__}: {' '.join(str(exc).split())})") from None
+    if data.dtype.names is None or data.size == 0:
+        raise ValueError(f"{path}: not a CSV of the LIGGGHTS data folder (no rows under a header)")
+    return data
 
 
 def _run_dir(ref, gamma: float, tag: str = MAIN_RUNS) -> Path:
@@ -1386,7 +1398,8 @@ def add_parser(sub):
     p.add_argument("--eulerian-lateral-cells", type=int, metavar="N",
                    help="in 2-D / 3-D: cells across the box's side (default 4; 2 to 256)")
     p.add_argument("--eulerian-perturbation", type=float, metavar="EPS",
-                   help="in 2-D / 3-D: the start's lateral density mode 1 + EPS cos(2πx/L) (default 0; [0, 1))")
+                   help="in 2-D / 3-D: the start's lateral mode, columns 1 + EPS cos(2πx/L) times as tall and "
+                   "heavy as the static bed (default 0; [0, 0.05])")
     p.add_argument("--reference", default=os.fspath(REFERENCE), metavar="DIR",
                    help="the LIGGGHTS data folder (default: the repository's reference/liggghts_bed)")
     p.set_defaults(func=_main)

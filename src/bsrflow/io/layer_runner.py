@@ -199,6 +199,10 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
             problem = _size_problem(kind, raw, given) or _reblamed(kind, raw, given, msg)
             if problem:
                 raise ConfigError(*problem) from None
+        else:
+            problem = _bed_reblamed(cls, kw, given, msg)
+            if problem:
+                raise ConfigError(*problem) from None
         field = next((k for k in kw if msg.startswith(k)), None)
         raise ConfigError(f"layer.{field}" if field else "layer", msg) from None
     if kind in ("tapped_layer", "vibrated_box") and setup.domain_height == 0:   # (the class takes 0 as not given)
@@ -720,6 +724,41 @@ def _reblamed(kind: str, s, given, msg: str):
     return None
 
 
+def _bed_reblamed(cls, kw: dict, given, msg: str):
+    """(layer.<field>, message) for a bed kind's setup refused with ``msg`` by a check across
+    fields, when ``msg`` blames a field the config does not give, or one whose default does not
+    mend it, or states no valid range: the given field whose default mends the config, with its
+    valid range at the other settings (the edge by bisection between the default and the given
+    value, printed inside the range); None when no single given field mends it."""
+    def valid(values) -> bool:
+        try:
+            cls(**values)
+        except (ValueError, TypeError):
+            return False
+        return True
+
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    blamed = next((k for k in fields if msg.startswith(f"{k} = ")), None)
+    without = {k: v for k, v in kw.items() if k != blamed}
+    if blamed in given and "valid range" in msg and valid(without):
+        return None                                   # the message already names the field and its range
+    order = ([blamed] if blamed in given else []) + [k for k in given if k != blamed]
+    for name in order:
+        value, default = kw.get(name), fields[name].default
+        if (not _finite(value) or not _finite(default) or default == value
+                or not valid({k: v for k, v in kw.items() if k != name})):
+            continue
+        integer = str(fields[name].type).startswith("int")
+        if not integer and not (value > 0 and default > 0):
+            continue
+        edge = _edge(lambda v: valid({**kw, name: v}), default, value, integer)
+        side = "at most" if value > default else "at least"
+        bound = str(edge) if integer else _fmt(edge, down=value > default)
+        return (f"layer.{name}", f"{name} = {value!r} is outside the valid range at these settings ({side} {bound} "
+                             f"with the other fields as given): {msg}")
+    return None
+
+
 def _diameter_max(kind: str, s) -> float:
     """The largest diameter [m] whose cells Δx = d / cells_per_diameter the layer ``s`` fits: its
     height at least two cells (packing bed) or cells_per_diameter + 1 (a layer, also in the
@@ -1054,7 +1093,7 @@ class _ControllerJob(_LayerBase):
     """What the jobs of the discretisations driven by the packing controller share
     (:func:`bsrflow.numerics.controller.drive_events`): ``self.disc`` with ``advance``,
     ``apply_velocity_jump``, ``observe``, named ``fields`` / ``load_fields``, ``counters`` and
-    ``tracer_positions`` (None without tracers); checkpoints of its named fields."""
+    ``tracer_positions`` (None or an empty array without tracers); checkpoints of its named fields."""
 
     def restore(self, ck):
         try:
@@ -1210,8 +1249,9 @@ def _checkpoint_tracers(ck: Checkpoint, tracers, ck_file):
     """The checkpoint's tracer positions, refused in one line when their number is not the
     config's."""
     if ck.tracers.shape != tracers.shape:
-        raise ConfigError("--resume", f"{ck_file} holds {ck.tracers.shape[0]} tracers, the config "
-                          f"{tracers.shape[0]}; run without --resume")
+        what = (f"{ck.tracers.shape[0]} tracers, the config {tracers.shape[0]}" if ck.tracers.shape[0] != tracers.shape[0]
+                else f"tracer positions of shape {ck.tracers.shape}, the config {tracers.shape}")
+        raise ConfigError("--resume", f"{ck_file} holds {what}; run without --resume")
     return ck.tracers
 
 

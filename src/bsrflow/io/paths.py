@@ -76,14 +76,38 @@ def _check_folder(folder: str, option: str, target: str) -> None:
         pass
 
 
+SIDE_FILE_SUFFIX_ROOM = len(".ckpt.tmp") + 10
+"""Characters the package may append to an output file's name for the files it writes beside
+it (``<out>.ckpt``, the temporary ``<out>.tmp<pid>`` and ``<out>.ckpt.tmp<pid>`` of an atomic
+write; a process id has at most 10 digits)."""
+
+
+def _name_max(folder: str) -> int:
+    """The longest file name the folder's file system takes (255 when it does not say)."""
+    try:
+        return int(os.pathconf(folder, "PC_NAME_MAX"))
+    except (OSError, ValueError, AttributeError):
+        return 255
+
+
 def check_output_file(path, option: str) -> str:
     """Check that ``path`` can be written as a file (module docstring); returns it as a string.
-    ``option`` names the option in the message (``--out``, ``--json``, ...)."""
+    ``option`` names the option in the message (``--out``, ``--json``, ...).  The file name must
+    leave room for the files written beside it (:data:`SIDE_FILE_SUFFIX_ROOM` characters below the
+    file system's longest name)."""
     path = os.fspath(path)
     if not path:
         raise OutputPathError(option, "empty path; give a file name")
     if os.path.isdir(path):
         raise OutputPathError(option, f"{path} is a directory; give a file name")
+    name = os.path.basename(path)
+    if os.path.isdir(os.path.dirname(os.path.abspath(path))):
+        limit = _name_max(os.path.dirname(os.path.abspath(path))) - SIDE_FILE_SUFFIX_ROOM
+        if len(name.encode("utf-8", "surrogateescape")) > limit:
+            raise OutputPathError(option, f"the file name is {len(name)} characters long; the valid range is 1 to "
+                                          f"{limit} here (the file system takes {limit + SIDE_FILE_SUFFIX_ROOM}, and "
+                                          f"the checkpoint and temporary files beside it add up to "
+                                          f"{SIDE_FILE_SUFFIX_ROOM})")
     if os.path.exists(path):
         mode = os.stat(path).st_mode
         if not stat.S_ISREG(mode):

@@ -668,9 +668,14 @@ class EulerianBed:
 
     The bed starts at rest as :func:`bsrflow.numerics.bed_lagrangian.static_bed`'s (its
     cumulative mass per area, cell-averaged; δ_max its overlap), θ = θ_seed; ``perturbation`` ε
-    multiplies the density by 1 + ε cos(2πx/L) (times cos(2πy/L) in 3-D) with x (y) the cells'
-    lower edges, which keeps the mass (Σ_i cos(2πi/n) = 0) and is not 0 on two cells; ε at most
-    :data:`~bsrflow.physics.granular_bed.MAX_PERTURBATION`.
+    makes each column f = 1 + ε cos(2πx/L) (times cos(2πy/L) in 3-D) times as heavy and as tall,
+    with x (y) the cells' lower edges: its cumulative mass f M(z/f) and overlap δ(z/f), so the
+    solid fractions stay the static bed's and the columns' heights differ (a heap's lateral mode;
+    the total mass is kept, Σ_i cos(2πi/n) = 0, and the mode is not 0 on two cells); ε at most
+    :data:`~bsrflow.physics.granular_bed.MAX_PERTURBATION`.  (Until 2026-12-05 ε multiplied
+    the density itself: a packed cell at φ_c(1 + ε) is compressed by d ε/(1 + ε), and at ε = 0.05
+    on 2 cells per d the start released 7× the floor's M(aω)²/2 within 5 ms, a one-off
+    measurement: the bed exploded before the floor moved.)
     In 2-D the fields are those of a bed uniform in y (per unit depth: the 3-D values)."""
 
     def __init__(self, setup, dim=1, cells_per_d=4, lateral_cells=1, perturbation=0.0, cfl=None, tracers=None):
@@ -699,17 +704,20 @@ class EulerianBed:
         n = len(delta)
         mass_faces = np.linspace(0.0, s.mass_per_area, n + 1)               # cumulative mass per area [kg/m²]
         edges = np.arange(nz + 1) * dz
-        cum = np.interp(edges, zf, mass_faces)
-        rho = np.diff(cum) / dz
-        dmax = np.interp(self.z, 0.5 * (zf[1:] + zf[:-1]), delta, right=0.0)
-        dmax = np.where(rho > 0.0, dmax, 0.0)
+        zmid = 0.5 * (zf[1:] + zf[:-1])
         q = np.zeros((N_FIELDS, nx, ny, nz))
         xc = np.arange(nx) / nx                  # the cells' lower edges, so that two cells carry the mode
         yc = np.arange(ny) / ny
         mode = np.cos(2.0 * math.pi * xc)[:, None] * (np.cos(2.0 * math.pi * yc)[None, :] if dim == 3 else 1.0)
-        q[RHO] = rho[None, None, :] * (1.0 + perturbation * mode)[:, :, None]
+        stretch = 1.0 + perturbation * mode      # each column: the static bed's profile, f times as tall and heavy
+        for i in range(nx):
+            for j in range(ny):
+                f = stretch[i, j]
+                rho = np.diff(f * np.interp(edges / f, zf, mass_faces)) / dz
+                dmax = np.interp(self.z / f, zmid, delta, right=0.0)
+                q[RHO, i, j] = rho
+                q[HIST, i, j] = rho * np.where(rho > 0.0, dmax, 0.0)
         q[ENER] = 1.5 * q[RHO] * s.theta_seed
-        q[HIST] = q[RHO] * dmax[None, None, :]
         self.q = q
         self.work = work_arrays(q.shape)
         self.counters = np.zeros(3, np.int64)
@@ -753,7 +761,8 @@ class EulerianBed:
         if not np.all(np.isfinite(p)):
             raise ValueError("tracers: the positions must be finite numbers [m]")
         box = self._box
-        hi = np.array([box[{"x": 0, "y": 1, "z": 2}[a]] for a in axes])
+        side = float(self.setup.side)           # (L itself: n (L/n) may be one ulp below it; L wraps to 0)
+        hi = np.array([side if a != "z" else box[2] for a in axes])
         for k, pt in enumerate(p):
             if np.any(pt < 0.0) or np.any(pt > hi):
                 raise ValueError(f"tracers: tracer {k} at {pt.tolist()} m is outside the grid "
@@ -785,6 +794,15 @@ class EulerianBed:
     (196 cells) 1.1x, 0.6x and 2.0x.  With another process busy on one of the two cores, the
     4 × 4 × 49 grid stepped about 0.8x as fast on two threads as on one (omp and workqueue, a
     one-off run)."""
+
+    LID_MASS_FRACTION = 1e-4
+    """The most of the bed's mass that may be within one diameter of the grid's lid (its top
+    ``cells_per_d`` layers) after an :meth:`advance`; more stops the run (the lid reflects the bed,
+    so a lid in the bed's path would change its flight; the n-D packing solver's bound on its top
+    layers is the same fraction).  Measured with the default lid (the energy bound's height), a
+    column at 4 cells per d over the reference's 11 cycles: at most 6.6e-6 at Γ = 3, 6e-8 to 7e-6
+    at Γ = 1.5, 6 and 8 (one-off runs, 2026-12-05); with ``output_height`` 0.025 m at Γ = 6 the
+    top cell reached φ = 0.48 before this check (a fuzzing review)."""
 
     @property
     def parallel(self) -> bool:
@@ -818,7 +836,20 @@ class EulerianBed:
                                   f"(height {self.z[idx[2]]:.4g} m)", None, t, None, "stopped")
         if t1 > t0:
             self._floor_force[0] = impulse / (t1 - t0) * s.area
+        near = self.lid_mass_fraction()
+        if near > self.LID_MASS_FRACTION:
+            from .solver import SimulationError
+            lid = self.shape[2] * self.dx[2]
+            raise SimulationError(f"the Eulerian bed stopped at t = {t:.6g} s: {near:.3g} of its mass is within one "
+                                  f"diameter of the grid's lid ({lid:.4g} m; at most {self.LID_MASS_FRACTION:g}); "
+                                  "raise output_height", None, t, None, "stopped")
         return self.last_floor_force if t1 > t0 else 0.0
+
+    def lid_mass_fraction(self) -> float:
+        """The fraction of the bed's mass within one diameter of the grid's lid (its top
+        ``cells_per_d`` cell layers; :attr:`LID_MASS_FRACTION`)."""
+        col = self.q[RHO].sum(axis=(0, 1))
+        return float(col[-self.cells_per_d:].sum() / col.sum())
 
     @property
     def last_floor_force(self) -> float:

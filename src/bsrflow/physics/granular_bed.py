@@ -408,8 +408,10 @@ MAX_LATERAL_CELLS = 256
 MAX_CELL_STEPS = 1e12
 """The most cell-steps an Eulerian bed run may need (days at the measured 0.5-2 µs per cell-stage)."""
 MAX_PERTURBATION = 0.05
-"""The largest lateral density mode at the start: φ_c(1 + ε) overlaps the contacts by
-d ε/(1 + ε), at most :data:`MAX_STATIC_OVERLAP` d (the contact law's small-overlap limit)."""
+"""The largest lateral mode of the columns' heights at the start (:class:`bsrflow.numerics.
+bed_eulerian.EulerianBed`: each column 1 + ε cos(...) times as tall and heavy as the static bed):
+a perturbation of the uniform bed, ±0.5 d on the reference's 10-d bed.  (Until 2026-12-05 a mode
+of the density, bounded by the contact law's small-overlap limit.)"""
 
 
 def eulerian_vertical_cells(setup: BedSetup, cells_per_d: int) -> int:
@@ -436,7 +438,7 @@ def check_eulerian_grid(dim, cells_per_d, lateral_cells, perturbation, dim_name=
     if (isinstance(perturbation, bool) or not isinstance(perturbation, (int, float)) or not math.isfinite(perturbation)
             or not 0.0 <= perturbation <= MAX_PERTURBATION or (dim == 1 and perturbation != 0.0)):
         raise ValueError(f"perturbation = {perturbation!r} is outside the valid range at {dim_name} = {dim}: "
-                         + (f"[0, {MAX_PERTURBATION:g}] (the contact law's small-overlap limit at the start)"
+                         + (f"[0, {MAX_PERTURBATION:g}] (a small mode of the columns' heights at the start)"
                             if dim > 1 else "[0, 0] (a column has no lateral mode)"))
 
 
@@ -446,8 +448,9 @@ class EulerianBedSetup(BedSetup):
     (``bsrflow run``'s ``kind = "granular_bed_eulerian"``): ``dimension`` 1 (a column), 2 (x, z)
     or 3 (x, y, z); ``cells_per_d`` cells per diameter vertically; ``lateral_cells`` cells across
     the box's side (periodic; not given: 1 for a column, 4 otherwise); ``perturbation`` ε: the
-    start's density times 1 + ε cos(2πx/L) (cos(2πy/L) in 3-D).  The grid's lid is at the whole
-    number of cells at or below :attr:`output_top`, so the file's column holds all the mass.
+    start's columns 1 + ε cos(2πx/L) (cos(2πy/L) in 3-D) times as tall and heavy.  The grid's lid
+    is at the whole number of cells at or below :attr:`output_top`, so the file's column holds all
+    the mass.
     ``n_cells`` (the Lagrangian cells) is not used."""
 
     dimension: int = 3

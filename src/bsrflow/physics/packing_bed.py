@@ -122,9 +122,9 @@ class PackingBed:
             raise ValueError(f"bed_height = {self.bed_height!r} m is outside the valid range: at least "
                              f"{2 * self.dx / (1 - self.surface_perturbation):.3g} m (two cells, also in the "
                              "troughs of the surface undulation)")
-        if round(self.box_width / self.dx) < 1:
-            raise ValueError(f"box_width = {self.box_width!r} m is outside the valid range: at least one cell "
-                             f"({self.dx:g} m)")
+        if round(self.box_width / self.dx) < 1:      # (1 or 2 cells: refused with the grid's range, layer_runner)
+            raise ValueError(f"box_width = {self.box_width!r} m is outside the valid range: at least three cells "
+                             f"({3 * self.dx:g} m; the periodic grid needs 3 across)")
         if self.domain_height is not None and not (self.domain_height >= self.energy_bound_height()):
             raise ValueError(f"domain_height = {self.domain_height!r} m is outside the valid range "
                              f"[{self.energy_bound_height():.4g}, inf) m (energy bound)")

@@ -77,13 +77,14 @@ __all__ = ["LayerSetup", "TappedLayer", "VibratedBox", "ScenarioRun", "run_scena
            "check_whole_cells"]
 
 
-def check_whole_cells(name: str, length: float, dx: float) -> None:
+def check_whole_cells(name: str, length: float, dx: float, least: int = 3) -> None:
     """Refuse a periodic box side ``length`` [m] that is not a whole number of cells of side
     ``dx`` [m] (ValueError naming ``name``): the grid would round it and the surface undulation,
-    computed with the length as given, would no longer be periodic."""
+    computed with the length as given, would no longer be periodic.  The suggested lengths are
+    at least ``least`` cells (the periodic grid's 3)."""
     n = length / dx
     if abs(n - round(n)) > 1e-9 * max(1.0, n):
-        lo, hi = math.floor(n) * dx, math.ceil(n) * dx
+        lo, hi = max(math.floor(n), least) * dx, max(math.ceil(n), least + 1) * dx
         raise ValueError(f"{name} = {length!r} m is not a whole number of cells of Δx = {dx:.6g} m "
                          f"(d / cells_per_diameter; {n:.4g} cells): valid are multiples of Δx, e.g. "
                          f"{lo:.6g} or {hi:.6g} m")
