@@ -589,7 +589,7 @@ def test_a_lid_in_the_beds_path_stops_the_run_naming_output_height():
     bed = B.EulerianBed(s, 1, cells_per_d=2)
     bed.apply_velocity_jump(s.amplitude * s.omega)
     with pytest.raises(SimulationError, match=r"^the Eulerian bed stopped at t = .* of its mass is within one "
-                                              r"diameter of the grid's lid \(0\.02 m; at most 0\.0001\); raise "
+                                              r"diameter of the grid's lid \(0\.02 m; at most 0\.001\); raise "
                                               r"output_height$"):
         for i in range(50):
             bed.advance(0.001 * i, 0.001 * (i + 1))

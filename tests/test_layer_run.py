@@ -105,6 +105,14 @@ def test_layer_config_runs_into_netcdf_and_vtk(tmp_path, run_layer_file):
      "layer.n_spheres: n_spheres = 10000000 is outside the valid range at these settings (at most 1768442 with"),
     ("[layer]\nkind = \"granular_bed_eulerian\"\ndimension = 1\ncells_per_d = 1\ncycles = 10000000\n",
      "layer.cycles: cycles = 10000000 is outside the valid range at these settings (at most"),
+    # two given fields either of which mends it: the first in the config's order (not a set's, a review)
+    ("[layer]\nkind = \"granular_bed_eulerian\"\ndimension = 1\ncycles = 100\nstiffness = 1e12\n",
+     "layer.cycles: cycles = 100 is outside the valid range at these settings (at most 21 with the other fields"),
+    ("[layer]\nkind = \"granular_bed_eulerian\"\ndimension = 1\nstiffness = 1e12\ncycles = 100\n",
+     "layer.stiffness: stiffness = 1000000000000.0 is outside the valid range at these settings (at most"),
+    # a lid less than a diameter above the bed at rest (the run would stop on it; a review)
+    ("[layer]\nkind = \"granular_bed_eulerian\"\ndimension = 1\nn_spheres = 600\noutput_height = 0.0175\n",
+     "layer.output_height: output_height = 0.0175 is outside the valid range at these settings, [0.02, 100] m"),
     # kind = "granular_bed_eulerian" takes tracers (2026-12-05): z in 1-D, (x, z), (x, y, z), inside its grid
     ("[layer]\nkind = \"granular_bed_eulerian\"\ndimension = 2\n[tracers]\npositions = [[0.01]]\n",
      "tracers.positions: must be a non-empty list of 2-element lists"),

@@ -142,7 +142,7 @@ def test_a_file_name_without_room_for_its_side_files_is_refused_before_any_work(
     from bsrflow.io.paths import SIDE_FILE_SUFFIX_ROOM, _name_max
     limit = _name_max(str(tmp_path)) - SIDE_FILE_SUFFIX_ROOM               # 255 - 19 on common file systems
     assert limit < 249
-    assert f"the file name is 249 characters long; the valid range is 1 to {limit}" in err[0], err[0]
+    assert f"the file name is 249 bytes long (UTF-8); the valid range is 1 to {limit} bytes" in err[0], err[0]
     assert sorted(os.listdir(tmp_path)) == ["c.toml", "d.dump", "layer.toml", "r.nc"]
 
 

@@ -69,6 +69,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
+import re
 import os
 import tomllib
 from dataclasses import dataclass
@@ -740,9 +741,10 @@ def _bed_reblamed(cls, kw: dict, given, msg: str):
     fields = {f.name: f for f in dataclasses.fields(cls)}
     blamed = next((k for k in fields if msg.startswith(f"{k} = ")), None)
     without = {k: v for k, v in kw.items() if k != blamed}
-    if blamed in given and "valid range" in msg and valid(without):
+    states_range = re.search(r"valid range[^:]*[\[(]", msg) is not None
+    if blamed in given and states_range and valid(without):
         return None                                   # the message already names the field and its range
-    order = ([blamed] if blamed in given else []) + [k for k in given if k != blamed]
+    order = ([blamed] if blamed in given else []) + [k for k in kw if k in given and k != blamed]   # config order
     for name in order:
         value, default = kw.get(name), fields[name].default
         if (not _finite(value) or not _finite(default) or default == value
@@ -754,8 +756,9 @@ def _bed_reblamed(cls, kw: dict, given, msg: str):
         edge = _edge(lambda v: valid({**kw, name: v}), default, value, integer)
         side = "at most" if value > default else "at least"
         bound = str(edge) if integer else _fmt(edge, down=value > default)
+        why = msg.split(": ", 1)[1] if name == blamed and ": " in msg else msg      # (not the field twice)
         return (f"layer.{name}", f"{name} = {value!r} is outside the valid range at these settings ({side} {bound} "
-                             f"with the other fields as given): {msg}")
+                             f"with the other fields as given): {why}")
     return None
 
 

@@ -103,10 +103,11 @@ def check_output_file(path, option: str) -> str:
     name = os.path.basename(path)
     if os.path.isdir(os.path.dirname(os.path.abspath(path))):
         limit = _name_max(os.path.dirname(os.path.abspath(path))) - SIDE_FILE_SUFFIX_ROOM
-        if len(name.encode("utf-8", "surrogateescape")) > limit:
-            raise OutputPathError(option, f"the file name is {len(name)} characters long; the valid range is 1 to "
-                                          f"{limit} here (the file system takes {limit + SIDE_FILE_SUFFIX_ROOM}, and "
-                                          f"the checkpoint and temporary files beside it add up to "
+        size = len(name.encode("utf-8", "surrogateescape"))
+        if size > limit:
+            raise OutputPathError(option, f"the file name is {size} bytes long (UTF-8); the valid range is 1 to "
+                                          f"{limit} bytes here (the file system takes {limit + SIDE_FILE_SUFFIX_ROOM}, "
+                                          f"and the checkpoint and temporary files beside it add up to "
                                           f"{SIDE_FILE_SUFFIX_ROOM})")
     if os.path.exists(path):
         mode = os.stat(path).st_mode

@@ -795,14 +795,16 @@ class EulerianBed:
     4 × 4 × 49 grid stepped about 0.8x as fast on two threads as on one (omp and workqueue, a
     one-off run)."""
 
-    LID_MASS_FRACTION = 1e-4
+    LID_MASS_FRACTION = 1e-3
     """The most of the bed's mass that may be within one diameter of the grid's lid (its top
     ``cells_per_d`` layers) after an :meth:`advance`; more stops the run (the lid reflects the bed,
-    so a lid in the bed's path would change its flight; the n-D packing solver's bound on its top
-    layers is the same fraction).  Measured with the default lid (the energy bound's height), a
-    column at 4 cells per d over the reference's 11 cycles: at most 6.6e-6 at Γ = 3, 6e-8 to 7e-6
-    at Γ = 1.5, 6 and 8 (one-off runs, 2026-12-05); with ``output_height`` 0.025 m at Γ = 6 the
-    top cell reached φ = 0.48 before this check (a fuzzing review)."""
+    so a lid in the bed's path would change its flight; the setup refuses a lid less than a
+    diameter above the bed at rest).  With the default lid (the energy bound's height), one-off
+    runs of 2026-12-05 over 11 cycles kept at most 6.6e-6 there (the reference's bed, a column at
+    4 cells per d, Γ = 1.5-8), 2e-6 (600 spheres, 1-4 cells per d, Γ = 3-8) and 2.5e-5 to 1.3e-4
+    (beds 1.0-1.2 d deep, 210-250 spheres, Γ = 3-8, a review's runs reaching 1e-4 too); a lid 2 d
+    above a 600-sphere bed at Γ = 6 had the top cell at φ = 0.48 (a fuzzing review), one at 16 d
+    0.4 % of the mass within a diameter of it."""
 
     @property
     def parallel(self) -> bool:

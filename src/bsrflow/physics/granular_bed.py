@@ -465,10 +465,14 @@ class EulerianBedSetup(BedSetup):
         super().__post_init__()
         dz = self.diameter / self.cells_per_d
         top = eulerian_vertical_cells(self, self.cells_per_d) * dz
-        if top < self.rest_height + dz:
+        tallest = (1.0 + self.perturbation) * self.rest_height       # the tallest column at the start
+        need = tallest + self.diameter                                 # a diameter of room below the lid
+        if top < need - 1e-12 * need:
+            lowest = math.ceil(need / dz - 1e-9) * dz
             raise ValueError(f"output_height = {self.output_height!r} is outside the valid range at these settings, "
-                             f"[{self.rest_height + 2 * dz:.4g}, 100] m: the grid of whole cells below it would end "
-                             f"at {top:.4g} m, the bed at rest is {self.rest_height:.4g} m high")
+                             f"[{lowest:.4g}, 100] m: the grid of whole cells below it would end at {top:.4g} m, and "
+                             f"the bed at rest ({tallest:.4g} m high) needs a diameter of room below the grid's lid "
+                             "(a bed reaching the lid stops the run)")
 
     def grid_upper(self) -> tuple:
         """The grid's upper corner [m] in the tracers' layout (z in 1-D, (x, z) in 2-D, (x, y, z) in
