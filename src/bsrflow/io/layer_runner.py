@@ -69,8 +69,8 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
-import re
 import os
+import re
 import tomllib
 from dataclasses import dataclass
 
