@@ -710,13 +710,12 @@ class EulerianBed:
         yc = np.arange(ny) / ny
         mode = np.cos(2.0 * math.pi * xc)[:, None] * (np.cos(2.0 * math.pi * yc)[None, :] if dim == 3 else 1.0)
         stretch = 1.0 + perturbation * mode      # each column: the static bed's profile, f times as tall and heavy
-        for i in range(nx):
-            for j in range(ny):
-                f = stretch[i, j]
-                rho = np.diff(f * np.interp(edges / f, zf, mass_faces)) / dz
-                dmax = np.interp(self.z / f, zmid, delta, right=0.0)
-                q[RHO, i, j] = rho
-                q[HIST, i, j] = rho * np.where(rho > 0.0, dmax, 0.0)
+        for f in np.unique(stretch):             # (the mode takes a few values)
+            rho = np.diff(f * np.interp(edges / f, zf, mass_faces)) / dz
+            dmax = np.interp(self.z / f, zmid, delta, right=0.0)
+            cols = stretch == f
+            q[RHO][cols] = rho
+            q[HIST][cols] = rho * np.where(rho > 0.0, dmax, 0.0)
         q[ENER] = 1.5 * q[RHO] * s.theta_seed
         self.q = q
         self.work = work_arrays(q.shape)
@@ -743,6 +742,8 @@ class EulerianBed:
 
     TRACER_AXES = {1: ("z",), 2: ("x", "z"), 3: ("x", "y", "z")}
     """The user layout of a tracer's position per dimension of the grid."""
+    _TRACER_COLUMNS = {1: [2], 2: [0, 2], 3: [0, 1, 2]}
+    """The internal (x, y, z) columns of :attr:`TRACER_AXES`."""
 
     def set_tracers(self, positions):
         """Set the tracers from positions (n, dim) [m] in the user layout (:attr:`TRACER_AXES`: z in
@@ -761,16 +762,16 @@ class EulerianBed:
         if not np.all(np.isfinite(p)):
             raise ValueError("tracers: the positions must be finite numbers [m]")
         box = self._box
+        cols = self._TRACER_COLUMNS[self.dim]
         side = float(self.setup.side)           # (L itself: n (L/n) may be one ulp below it; L wraps to 0)
-        hi = np.array([side if a != "z" else box[2] for a in axes])
+        hi = np.array([box[2] if c == 2 else side for c in cols])
         for k, pt in enumerate(p):
             if np.any(pt < 0.0) or np.any(pt > hi):
                 raise ValueError(f"tracers: tracer {k} at {pt.tolist()} m is outside the grid "
                                  f"[0, {hi.tolist()}] m ({', '.join(axes)})")
         tr = np.zeros((p.shape[0], 3))
         tr[:, 0] = 0.5 * box[0]
-        for c, a in enumerate(axes):
-            tr[:, {"x": 0, "y": 1, "z": 2}[a]] = p[:, c]
+        tr[:, cols] = p
         self.tracers = tr
 
     @property
@@ -877,8 +878,7 @@ class EulerianBed:
     def tracer_positions(self):
         """The tracers' positions (n, dim) [m] in the user layout (:attr:`TRACER_AXES`), floor
         frame; (0, dim) without tracers."""
-        idx = [{"x": 0, "y": 1, "z": 2}[a] for a in self.TRACER_AXES[self.dim]]
-        return self.tracers[:, idx].copy()
+        return self.tracers[:, self._TRACER_COLUMNS[self.dim]]
 
     def observe(self):
         """(u (1, nz) [m/s], ρ (nz) [kg/m]) on the output column: the bed's mass per metre of

@@ -59,7 +59,7 @@ from numba import prange
 from ..physics.interaction import Interaction
 from ..physics.packing import BilinearStiffness, history_update
 from . import packing_kernels as pk
-from .tracers import tracer_combine, tracer_stage, tracer_velocity  # noqa: F401 (tracer_velocity: the docs' name)
+from .tracers import tracer_combine, tracer_stage
 
 __all__ = ["PackingLawND", "EulerianPackingND", "run_packing_nd", "fv_rhs_nd", "verify_cases"]
 
