@@ -127,3 +127,51 @@ def test_init_force_replaces_only_a_config(tmp_path, capsys):
         cfg.write_text(text)
         assert main(["init", str(cfg), "--force"]) == 0
         assert "[column]" in cfg.read_text()
+
+
+@pytest.mark.parametrize("argv, line", [
+    (["compare-bed", "--cells", "abc"], "bsrflow compare-bed: error: --cells 'abc' is not an integer; valid range: [4, 1000]"),
+    (["compare-bed", "--cells=1e3"], "bsrflow compare-bed: error: --cells '1e3' is not an integer; valid range: [4, 1000]"),
+    (["compare-bed", "--eulerian", "x"], "bsrflow compare-bed: error: --eulerian 'x' is not an integer; valid range: {1, 2, 3}"),
+    (["compare-bed", "--eulerian", "2", "--eulerian-perturbation", "1%"],
+     "bsrflow compare-bed: error: --eulerian-perturbation '1%' is not a number; valid range: [0, 0.05]"),
+    (["compare-bed", "--gammas", "3", "x"], "bsrflow compare-bed: error: --gammas 'x' is not a number; valid range: "
+                                           "the LIGGGHTS runs' Γ, 1.5 to 8"),
+    (["compare", "--ppd", "ten"], "bsrflow compare: error: --ppd 'ten' is not an integer; valid range: integers in "
+                                  "[2, 1000]"),
+    (["demo", "--diameter", "2cm"], "bsrflow demo: error: --diameter '2cm' is not a number; valid range: [1e-06, 10] m"),
+    (["compare-dump", "x.dump", "--n-spheres", "many"],
+     "bsrflow compare-dump: error: --n-spheres 'many' is not an integer; valid range: [2, 100000] (integers)"),
+    (["compare-dump", "x.dump", "--dt", "1ms"], "bsrflow compare-dump: error: --dt '1ms' is not a number; valid range: "
+                                                "(0, inf) s"),
+    (["sweep", "--workers", "1.5"], "bsrflow sweep: error: --workers '1.5' is not an integer; valid range: [1, "),
+])
+def test_a_number_that_does_not_parse_names_the_valid_range(tmp_path, monkeypatch, capsys, argv, line):
+    """argparse said only "argument --cells: invalid int value: 'abc'" (a fuzzing review): now the
+    option's valid range too, one line, exit 2, before any work."""
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exc:              # argparse's refusal
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith(line), err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_every_numeric_option_states_its_range():
+    """Every int / float option of every command is a ``Number`` (its range for a value that does
+    not parse) or has choices; the range of a parsed value is still the command's check."""
+    import argparse
+
+    from bsrflow.cli import Number, build_parser
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    for name, parser in sub.choices.items():
+        for action in parser._actions:
+            if action.type in (int, float):
+                assert action.choices is not None, (name, action.option_strings)
+            if isinstance(action.type, Number):
+                assert action.type.valid.strip(), (name, action.option_strings)
+
+
+def test_a_parsed_value_out_of_range_is_still_the_commands_check(capsys):
+    _refused(capsys, ["compare-bed", "--cells", "0"], "--cells 0 is outside the valid range [4, 1000]")

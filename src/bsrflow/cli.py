@@ -32,6 +32,33 @@ COMMAND_MODULES = [
 ]
 
 
+class Number:
+    """The ``type`` of a numeric option: parses as ``kind`` (int or float) and carries the option's
+    valid range ``valid`` (text, or a function giving it when the range is known only at run time)
+    for the one-line error of a value that does not parse (``--cells abc``: the range, not only
+    "invalid int value").  The command checks the range of a parsed value itself, as before."""
+
+    def __init__(self, kind, valid):
+        self.kind, self._valid = kind, valid
+        self.__name__ = kind.__name__          # argparse names the type by it
+
+    def __call__(self, text):
+        return self.kind(text)
+
+    @property
+    def valid(self) -> str:
+        return self._valid() if callable(self._valid) else self._valid
+
+
+def max_workers() -> int:
+    """The most worker processes a command takes: 4 per CPU of this machine."""
+    return 4 * (os.cpu_count() or 1)
+
+
+def workers_range() -> str:
+    return f"[1, {max_workers()}] (4 per CPU of this machine)"
+
+
 class _OneLineErrors(argparse.ArgumentParser):
     """argparse with the package's error form: one line on stderr, ``prog: error: message``,
     exit code 2 (no usage block; ``--help`` gives it).  A negative number in exponent form
@@ -42,6 +69,23 @@ class _OneLineErrors(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
         self._negative_number_matcher = re.compile(r"^-((\d+\.?\d*|\.\d+)([eE][-+]?\d+)?|inf|infinity|nan)$",
                                                    re.IGNORECASE)
+
+    def _get_value(self, action, arg_string):
+        """A value that does not parse as the option's number is one line naming the option and its
+        valid range (:class:`Number`'s, or the option's choices)."""
+        try:
+            return super()._get_value(action, arg_string)
+        except argparse.ArgumentError:
+            if isinstance(action.type, Number):
+                valid = action.type.valid
+            elif action.choices is not None and action.type in (int, float):
+                valid = "{" + ", ".join(map(str, action.choices)) + "}"
+            else:
+                raise
+            noun = "an integer" if getattr(action.type, "__name__", "") == "int" else "a number"
+            name = "/".join(action.option_strings) or action.metavar or action.dest
+            raise argparse.ArgumentError(None, f"{name} {arg_string!r} is not {noun}; valid range: "
+                                               f"{valid}") from None
 
     def error(self, message):
         self.exit(2, f"{self.prog}: error: {' '.join(str(message).split())}\n")

@@ -31,6 +31,7 @@ import time
 
 import numpy as np
 
+from ..cli import Number, max_workers, workers_range
 from ..io.paths import DIR_RULE, FILE_RULE, check_distinct, check_output_dir, check_output_file
 from ..numerics.solver import SimulationError
 from ..physics.column import ColumnSetup, run_bsr_column
@@ -246,11 +247,13 @@ def add_parser(sub):
                            "(bsrflow.physics.column.suggest_stiffness_factor; documented cost: top maximum "
                            "within 1 %%, mass-centre RMS within 0.15 d of the true stiffness's (lagrangian, "
                            "R = d), 1.5 %%, 0.25 d (lagrangian, local), 1 %%, 1.2 d (eulerian))")
-            p.add_argument("--workers", type=int, default=None, metavar="N",
+            p.add_argument("--workers", type=Number(int, workers_range), default=None, metavar="N",
                            help="packing only: run the continuum's cases on N processes (default 1; at most 4 per "
                            "CPU); the same numbers, the wall times then those of a shared machine")
-        p.add_argument("--diameter", type=float, default=None, help="sphere diameter d [m] (default 0.022)")
-        p.add_argument("--ppd", type=int, default=None, help="grid points per diameter (default 10)")
+        p.add_argument("--diameter", type=Number(float, "[1e-06, 10] m"), default=None,
+                       help="sphere diameter d [m] (default 0.022)")
+        p.add_argument("--ppd", type=Number(int, "integers in [2, 1000]"), default=None,
+                       help="grid points per diameter (default 10)")
         p.set_defaults(func=_main)
 
 
@@ -290,10 +293,8 @@ def _packing_main(args) -> int:
     if args.diameter is not None:
         raise ValueError("--diameter is not an option of --kernel packing (its cases set d = 5, 10, 22 mm)")
     workers = 1 if args.workers is None else args.workers
-    max_workers = 4 * (os.cpu_count() or 1)
-    if not 1 <= workers <= max_workers:
-        raise ValueError(f"--workers {workers} is outside the valid range [1, {max_workers}] (4 per CPU of this "
-                         "machine)")
+    if not 1 <= workers <= max_workers():
+        raise ValueError(f"--workers {workers} is outside the valid range {workers_range()}")
     if args.scheme != "seed":
         raise ValueError("--scheme is an option of the seed kernel only (valid with --kernel packing: none)")
     base = _setup_from_options(kernel_name="packing", **kw)

@@ -56,7 +56,11 @@ from pathlib import Path
 import numpy as np
 
 from ..numerics.solver import SimulationError
-from ..physics.granular_bed import BedSetup
+from ..cli import Number, max_workers, workers_range
+from ..physics.granular_bed import MAX_CELLS_PER_D, MAX_LATERAL_CELLS, MAX_PERTURBATION, BedSetup
+
+CELLS_RANGE = (4, 1000)
+"""``--cells``: the Lagrangian cells over the bed."""
 
 __all__ = ["REFERENCE", "flights_from_force", "flight_per_cycle", "period_doubling_measure", "compare_bed",
            "add_parser"]
@@ -1382,22 +1386,23 @@ def add_parser(sub):
     p.add_argument("--json", metavar="PATH", help="write the results as JSON (its folder must exist)")
     p.add_argument("--figures", metavar="DIR", help="write the figures to DIR (created if missing; the folder "
                                                      "holding it must exist)")
-    p.add_argument("--gammas", type=float, nargs="+", metavar="G",
+    p.add_argument("--gammas", type=Number(float, "the LIGGGHTS runs' Γ, 1.5 to 8 in steps of 0.5 (the repository's "
+                                            "data)"), nargs="+", metavar="G",
                    help="only these Γ of the main runs (default: every Γ of the LIGGGHTS runs, 1.5 to 8)")
-    p.add_argument("--cells", type=int, default=200, metavar="N", help="Lagrangian cells over the bed (default 200)")
+    p.add_argument("--cells", type=Number(int, f"[{CELLS_RANGE[0]}, {CELLS_RANGE[1]}]"), default=200, metavar="N", help="Lagrangian cells over the bed (default 200)")
     p.add_argument("--no-extra", action="store_true",
                    help="skip the e = 0.5, friction, spring-dashpot, 10 000-sphere and elastic-floor comparisons")
-    p.add_argument("--workers", type=int, default=1, metavar="N",
+    p.add_argument("--workers", type=Number(int, workers_range), default=1, metavar="N",
                    help="run the continuum's runs on N processes (default 1; at most 4 per CPU); the same numbers, "
                         "the wall times then those of a shared machine")
     p.add_argument("--eulerian", type=int, choices=(1, 2, 3), metavar="DIM",
                    help="also run the model on the Eulerian grid in DIM = 1, 2 or 3 dimensions at every main Γ "
                         "(eulerian_cases; serial, 20-40 s per Γ in 1-D at 4 cells per d on this VM, far more in 3-D)")
-    p.add_argument("--eulerian-cells-per-d", type=int, metavar="N",
+    p.add_argument("--eulerian-cells-per-d", type=Number(int, f"integers in [1, {MAX_CELLS_PER_D}]"), metavar="N",
                    help="the Eulerian grid's cells per diameter, vertically (default 4; 1 to 64)")
-    p.add_argument("--eulerian-lateral-cells", type=int, metavar="N",
+    p.add_argument("--eulerian-lateral-cells", type=Number(int, f"integers in [2, {MAX_LATERAL_CELLS}]"), metavar="N",
                    help="in 2-D / 3-D: cells across the box's side (default 4; 2 to 256)")
-    p.add_argument("--eulerian-perturbation", type=float, metavar="EPS",
+    p.add_argument("--eulerian-perturbation", type=Number(float, f"[0, {MAX_PERTURBATION:g}]"), metavar="EPS",
                    help="in 2-D / 3-D: the start's lateral mode, columns 1 + EPS cos(2πx/L) times as tall and "
                    "heavy as the static bed (default 0; [0, 0.05])")
     p.add_argument("--reference", default=os.fspath(REFERENCE), metavar="DIR",
@@ -1424,8 +1429,8 @@ def _main(args) -> int:
         raise ValueError(f"--reference {args.reference}: no {missing[0]} there (the LIGGGHTS data folder holds "
                          f"{', '.join(need)})")
     known, _, _ = reference_bed(ref)
-    if not (4 <= args.cells <= 1000):
-        raise ValueError(f"--cells {args.cells} is outside the valid range [4, 1000]")
+    if not (CELLS_RANGE[0] <= args.cells <= CELLS_RANGE[1]):
+        raise ValueError(f"--cells {args.cells} is outside the valid range [{CELLS_RANGE[0]}, {CELLS_RANGE[1]}]")
     if args.gammas:
         snapped = []
         for g in args.gammas:
@@ -1436,10 +1441,8 @@ def _main(args) -> int:
         if len(set(snapped)) < len(snapped):
             raise ValueError(f"--gammas: a value is given twice ({' '.join(f'{g:g}' for g in args.gammas)})")
         args.gammas = snapped
-    max_workers = 4 * (os.cpu_count() or 1)
-    if not 1 <= args.workers <= max_workers:
-        raise ValueError(f"--workers {args.workers} is outside the valid range [1, {max_workers}] (4 per CPU of this "
-                         "machine)")
+    if not 1 <= args.workers <= max_workers():
+        raise ValueError(f"--workers {args.workers} is outside the valid range {workers_range()}")
     eulerian = None
     given = {k: v for k, v in (("--eulerian-cells-per-d", args.eulerian_cells_per_d),
                                ("--eulerian-lateral-cells", args.eulerian_lateral_cells),

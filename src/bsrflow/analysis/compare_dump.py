@@ -24,6 +24,7 @@ is not a function there, so :func:`case_metrics` restates it).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import math
 import os
@@ -31,6 +32,7 @@ import types
 
 import numpy as np
 
+from ..cli import Number
 from ..physics.column import continuum_label
 from .compare import _metrics
 
@@ -225,24 +227,32 @@ def _config_key(field: str) -> str:
         return field
 
 
+def _option_range(field: str) -> str:
+    """The valid range of the column field ``field`` as the config states it."""
+    from ..io.config import FIELDS
+    key = _config_key(field)
+    return next(f.range_text() for f in FIELDS if f.name == key)
+
+
 def add_parser(sub):
     helptext = "BSR against a LAMMPS/LIGGGHTS dump of the tapped column (metrics and figures of 'compare')"
     p = sub.add_parser("compare-dump", help=helptext, description=helptext)
     p.add_argument("dump", metavar="DUMP", help="LAMMPS/LIGGGHTS text dump (dump atom/custom; .gz allowed)")
     p.add_argument("--config", metavar="CONFIG.toml",
                    help="column configuration (TOML); options below override it")
-    p.add_argument("--dt", type=float, metavar="SECONDS",
+    p.add_argument("--dt", type=Number(float, "(0, inf) s"), metavar="SECONDS",
                    help="the DEM run's time step [s]: t = timestep * dt, needed unless the dump has ITEM: TIME "
                         "(then the dump's times are used and a --dt contradicting them is refused)")
     p.add_argument("--name", metavar="NAME",
                    help="case name in the JSON and the figure file names (default: the file name without "
                         ".dump/.lammpstrj/.lammps; .gz becomes _gz)")
     p.add_argument("--axis", default="z", choices=("x", "y", "z"), help="vertical axis of the dump (default z)")
-    p.add_argument("--floor-offset", type=float, default=0.0, metavar="M",
+    p.add_argument("--floor-offset", type=Number(float, "finite values [m]"), default=0.0, metavar="M",
                    help="rest position of the floor in the dump's coordinates [m] (default 0)")
-    p.add_argument("--time-offset", type=float, default=0.0, metavar="S",
+    p.add_argument("--time-offset", type=Number(float, "finite values [s]"), default=0.0, metavar="S",
                    help="subtracted from the dump's times [s] (default 0)")
-    p.add_argument("--type", type=int, action="append", dest="types", metavar="T",
+    p.add_argument("--type", type=Number(int, "integers >= 1 (the dump's atom types)"), action="append", dest="types",
+                   metavar="T",
                    help="use only atoms of this type (repeatable; default all)")
     p.add_argument("--kernel", choices=("seed", "packing"), default=None,
                    help="the continuum: the seed's kernel (m0, eps) or the packing continuum (the contact "
@@ -251,7 +261,8 @@ def add_parser(sub):
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="override any column parameter (repeatable), e.g. --set restitution=0.8")
     for opt, _field, typ, h in _SETUP_OPTIONS:
-        p.add_argument(opt, type=typ, default=None, dest=_field, metavar="N" if typ is int else "VALUE", help=h)
+        p.add_argument(opt, type=typ if typ is str else Number(typ, functools.partial(_option_range, _field)),
+                       default=None, dest=_field, metavar="N" if typ is int else "VALUE", help=h)
     p.add_argument("--json", metavar="PATH", help="write the results as JSON (its folder must exist)")
     p.add_argument("--figures", metavar="DIR", help="write the figures to DIR (created if missing; "
                    "the folder holding it must exist)")

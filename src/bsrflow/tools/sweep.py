@@ -46,6 +46,7 @@ import time
 
 import numpy as np
 
+from ..cli import Number, max_workers, workers_range
 from .setup_source import (SetupSource, canonical_name, check_given_once, check_no_run_outputs, coerce_value,
                            parameter_info, parse_value)
 from ..physics.column import continuum_label
@@ -475,7 +476,7 @@ def add_parser(sub):
                    help="fix a parameter for every case (repeatable)")
     p.add_argument("--scheduler", metavar="ADDRESS", default=None,
                    help="address of a running dask scheduler (default: start a LocalCluster)")
-    p.add_argument("--workers", type=int, default=None,
+    p.add_argument("--workers", type=Number(int, workers_range), default=None,
                    help="LocalCluster worker processes (default 2; at most 4 per CPU; not with --scheduler)")
     p.add_argument("--out", default="sweep.nc", metavar="FILE.nc",
                    help="netCDF output (default sweep.nc; its folder must exist)")
@@ -507,9 +508,8 @@ def _main(args) -> int:
         raise ValueError("--workers sets the size of the LocalCluster; with --scheduler the scheduler's own "
                          "workers run the cases: leave --workers out")
     workers = 2 if args.workers is None else args.workers
-    max_workers = 4 * (os.cpu_count() or 1)
-    if not 1 <= workers <= max_workers:
-        raise ValueError(f"--workers {workers} is outside the valid range [1, {max_workers}] (4 per CPU of this machine)")
+    if not 1 <= workers <= max_workers():
+        raise ValueError(f"--workers {workers} is outside the valid range {workers_range()}")
     check_given_once(("--set", item.strip()) for item in args.set)
     check_no_run_outputs("sweep cases write", [(opt, item.partition("=")[0].strip())
                                                for opt, items in (("--param", args.param), ("--set", args.set))
