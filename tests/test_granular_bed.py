@@ -269,6 +269,13 @@ def test_compare_bed_command_writes_the_schema(tmp_path, capsys):
                                          "--eulerian-lateral-cells 0 is outside the valid range at --eulerian 2"),
                                         (["--eulerian", "3", "--eulerian-lateral-cells", "256", "--eulerian-cells-per-d",
                                           "8"], "--eulerian-cells-per-d 8 is outside the valid range at these settings"),
+                                        # the range of cells per d at these settings (it gave none: a fuzzing review)
+                                        (["--eulerian", "3", "--eulerian-lateral-cells", "100", "--eulerian-cells-per-d",
+                                          "8"], "--eulerian-cells-per-d 8 is outside the valid range at these settings, "
+                                                "integers in [1, 3]: the run would take about"),
+                                        (["--eulerian", "3", "--eulerian-lateral-cells", "256", "--eulerian-cells-per-d",
+                                          "64"], "--eulerian-cells-per-d 64 is outside the valid range at these settings, "
+                                                 "none fits: the run would take about"),
                                         (["--eulerian", "2", "--eulerian-perturbation", "1"],
                                          "--eulerian-perturbation 1.0 is outside the valid range"),
                                         (["--eulerian", "2", "--eulerian-perturbation", "0.06"],

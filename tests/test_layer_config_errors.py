@@ -117,6 +117,53 @@ def test_errors_name_the_field_the_config_sets(text, field, tmp_path, capsys):
     stated_range(err)
 
 
+@pytest.mark.parametrize("text", [
+    'dim = 2\ncells_per_diameter = 100000\nbox_width = 0.02',
+    'cells_per_diameter = 100000\nbox_width = 0.02\nbed_height = 0.01',
+])
+def test_a_packing_grid_too_large_names_the_field_far_off_its_default(text, tmp_path, capsys):
+    """cells_per_diameter = 100000 with the box at its default blamed box_width (a fuzzing review:
+    "box_width: 0.02 m is outside the valid range at these settings, [1.5e-07, 3.5e-07] m"): the
+    given field furthest from its default is named, with its range, and its upper end runs."""
+    err = refused(tmp_path, capsys, f'[layer]\nkind = "packing_bed"\n{text}\n')
+    assert err.startswith("bsrflow run: error: layer.cells_per_diameter: 100000 is outside the valid range at these "
+                          "settings, integers in [1, "), err
+    assert "box_width" not in err
+    _, hi = stated_range(err)
+    assert loads(tmp_path, f'[layer]\nkind = "packing_bed"\n{text.replace("100000", str(int(hi)))}\n')
+
+
+def test_an_eulerian_bed_names_lateral_cells_not_the_cells_per_d_it_does_not_give(tmp_path, capsys):
+    """lateral_cells (default None: 4 in 2-D / 3-D) was not re-blamed, so the message named
+    cells_per_d, which the config does not give, with no range (a fuzzing review)."""
+    text = '[layer]\nkind = "granular_bed_eulerian"\ndimension = 3\nlateral_cells = {}\n'
+    err = refused(tmp_path, capsys, text.format(256))
+    m = re.match(r"bsrflow run: error: layer\.lateral_cells: lateral_cells = 256 is outside the valid range at these "
+                 r"settings \(at most (\d+) with the other fields as given\): the run would take about [0-9.e+]+ "
+                 r"cell-steps", err)
+    assert m, err
+    assert "cells_per_d = 4" not in err
+    n = int(m.group(1))
+    assert loads(tmp_path, text.format(n)).setup.lateral_cells == n
+    with pytest.raises(ConfigError, match=r"^layer\.lateral_cells: "):
+        loads(tmp_path, text.format(n + 1))
+
+
+@pytest.mark.parametrize("kind, field", [
+    ("granular_bed", "frequency"), ("granular_bed", "diameter"), ("granular_bed", "side"),
+    ("granular_bed", "restitution"), ("granular_bed_eulerian", "frequency"), ("packing_bed", "coordination"),
+    ("packing_bed", "t_end"),
+])
+def test_a_value_that_divides_by_zero_names_the_field_and_its_bound(kind, field, tmp_path, capsys):
+    """1e-300 made the bed kinds' checks divide by zero or overflow: a traceback, exit 1 (a
+    fuzzing review); now the field's bound at these settings, one line, exit 2."""
+    err = refused(tmp_path, capsys, f'[layer]\nkind = "{kind}"\n{field} = 1e-300\n')
+    m = re.match(rf"bsrflow run: error: layer\.{field}: {field} = 1e-300 is outside the valid range at these settings "
+                 r"\(at least ([0-9.e+-]+) with the other fields as given\)", err)
+    assert m and float(m.group(1)) > 1e-300, err
+    assert "ZeroDivisionError" in err or "OverflowError" in err
+
+
 def test_the_stated_t_end_bound_is_accepted(tmp_path, capsys):
     err = refused(tmp_path, capsys, '[layer]\nkind = "packing_bed"\nt_end = 1e300\n')
     _, hi = stated_range(err)

@@ -193,11 +193,15 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
     _check_layer_bounds(kind, kw)
     try:
         setup = cls(**kw)
-    except (ValueError, TypeError) as exc:
+    except (ValueError, TypeError, ArithmeticError) as exc:     # (1e-300: a division by zero)
         msg = str(exc).splitlines()[0]
+        if isinstance(exc, ArithmeticError):
+            msg = f"the setup's numbers overflow or divide by zero ({type(exc).__name__})"
         if kind not in BED_KINDS:        # a grid too large, or a bound of the field the user set
             raw = _unchecked_setup(cls, kw)
             problem = _size_problem(kind, raw, given) or _reblamed(kind, raw, given, msg)
+            if problem is None and isinstance(exc, ArithmeticError):
+                problem = _bed_reblamed(cls, kw, given, msg)
             if problem:
                 raise ConfigError(*problem) from None
         else:
@@ -256,6 +260,9 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
         if kind in BED_KINDS and "save_every" not in layer:
             raise ConfigError("layer.save_every", f"not given: its default {GRANULAR_BED_SAVE_EVERY:g} s is outside the "
                               f"valid range (0, t_end = {t_end:g}] s (t_end = cycles / frequency); set it")
+        if "save_every" not in layer:
+            raise ConfigError("layer.save_every", f"not given: its default {setup.save_every:g} s is outside the "
+                              f"valid range (0, t_end = {t_end:g}] s; set it")
         raise ConfigError("layer.save_every", f"{setup.save_every!r} is outside the valid range (0, t_end = {t_end:g}] s")
     ck = out.get("checkpoint_every")
     if ck is not None:
@@ -602,14 +609,32 @@ def _size_problem(kind: str, s, given):
     else:
         reason = (f"the resting layer would be {_count_text(rest)} cells tall (at most {MAX_RESTING_CELLS}: its rest "
                   "state is a dense linear solve of that size)")
-    for name in _SIZE_FIELDS[kind]:
-        if name in given:
-            rng = _first_range(kind, s, name)
-            if rng:
-                return f"layer.{name}", (f"{_value_text(kind, s, name)} is outside the valid range at these settings, "
-                                         f"{rng}: {reason}")
+    blamed = _most_off_default(kind, s, _SIZE_FIELDS[kind], given)
+    if blamed:
+        name, rng = blamed
+        return f"layer.{name}", f"{_value_text(kind, s, name)} is outside the valid range at these settings, {rng}: {reason}"
     return "layer", (f"{reason}; reduce the box, the heights, the cells per diameter or the floor's speed, which sets "
                      "the domain height by the energy bound")
+
+
+def _most_off_default(kind: str, s, names, given, which: str | None = None):
+    """(field, its valid range at these settings) of the fields ``names`` the config gives
+    (``given``) that some value of their own mends: the one furthest from its default in orders
+    of magnitude (``cells_per_diameter = 100000`` rather than the box at its default, which a box
+    of 3 cells would mend too), the first of ``names`` among equals; None when none mends it."""
+    defaults = {f.name: f.default for f in dataclasses.fields(_kind_classes()[kind])}
+    best = None
+    for i, name in enumerate(names):
+        if name not in given:
+            continue
+        rng = _first_range(kind, s, name, which)
+        if not rng:
+            continue
+        value, default = getattr(s, name), defaults.get(name)
+        off = abs(math.log(value / default)) if _finite(default) and default > 0 and value > 0 else 0.0
+        if best is None or off > best[0]:
+            best = (off, name, rng)
+    return None if best is None else best[1:]
 
 
 def _value_text(kind: str, s, name: str) -> str:
@@ -734,7 +759,7 @@ def _bed_reblamed(cls, kw: dict, given, msg: str):
     def valid(values) -> bool:
         try:
             cls(**values)
-        except (ValueError, TypeError):
+        except (ValueError, TypeError, ArithmeticError):
             return False
         return True
 
@@ -747,6 +772,8 @@ def _bed_reblamed(cls, kw: dict, given, msg: str):
     order = ([blamed] if blamed in given else []) + [k for k in kw if k in given and k != blamed]   # config order
     for name in order:
         value, default = kw.get(name), fields[name].default
+        if default is None:              # derived when not given (lateral_cells: 1 for a column, else 4)
+            default = _derived_default(cls, kw, name)
         if (not _finite(value) or not _finite(default) or default == value
                 or not valid({k: v for k, v in kw.items() if k != name})):
             continue
@@ -756,10 +783,21 @@ def _bed_reblamed(cls, kw: dict, given, msg: str):
         edge = _edge(lambda v: valid({**kw, name: v}), default, value, integer)
         side = "at most" if value > default else "at least"
         bound = str(edge) if integer else _fmt(edge, down=value > default)
-        why = msg.split(": ", 1)[1] if name == blamed and ": " in msg else msg      # (not the field twice)
+        # not the field twice, nor a field the config does not give without a range of its own
+        why = msg.split(": ", 1)[1] if (name == blamed or (blamed not in given and not states_range)) and ": " in msg \
+            else msg
         return (f"layer.{name}", f"{name} = {value!r} is outside the valid range at these settings ({side} {bound} "
                              f"with the other fields as given): {why}")
     return None
+
+
+def _derived_default(cls, kw: dict, name: str):
+    """The value a bed kind's class gives field ``name`` (default None) when the config leaves it
+    out and the other fields are as given; None when it derives none or refuses those fields."""
+    try:
+        return getattr(cls(**{k: v for k, v in kw.items() if k != name}), name)
+    except (ValueError, TypeError, ArithmeticError):
+        return None
 
 
 def _diameter_max(kind: str, s) -> float:
@@ -874,12 +912,11 @@ def _stiffness_reblamed(s, given):
         reason = f"the run would take about {steps:.2g} time steps (at most {MAX_STEPS:.0e})"
     else:
         return None
-    for name in names:
-        if name in given:
-            rng = _first_range("packing_bed", s, name, which)
-            if rng:
-                return (f"layer.{name}", f"{_value_text('packing_bed', s, name)} is outside the valid range at these "
-                        f"settings, {rng}: {reason}")
+    blamed = _most_off_default("packing_bed", s, names, given, which)
+    if blamed:
+        name, rng = blamed
+        return (f"layer.{name}", f"{_value_text('packing_bed', s, name)} is outside the valid range at these "
+                f"settings, {rng}: {reason}")
     return None
 
 

@@ -483,11 +483,19 @@ class EulerianBedSetup(BedSetup):
     def _check_steps(self):
         """Refuse more than :data:`MAX_CELL_STEPS` cell-steps or :data:`MAX_STEPS` steps of the grid
         (naming ``cells_per_d``), in place of the Lagrangian cells' bound."""
-        dz = self.diameter / self.cells_per_d
-        cells = eulerian_vertical_cells(self, self.cells_per_d) * self.lateral_cells ** (self.dimension - 1)
-        per_step = 1.0 / dz + (self.dimension - 1) * self.lateral_cells / self.side      # Σ_a 1/Δx_a
-        steps = (self.t_end + self.settle) * self.contact_wave_speed() * per_step / self.cfl
-        if cells * steps > MAX_CELL_STEPS or steps > MAX_STEPS:
-            raise ValueError(f"cells_per_d = {self.cells_per_d!r} is outside the valid range at these settings: the run "
-                             f"would take about {cells * steps:.2g} cell-steps ({cells} cells, {steps:.2g} steps; at most "
-                             f"{MAX_CELL_STEPS:.0e} and {MAX_STEPS:.0e}: fewer cells per d or across, fewer cycles)")
+        def cost(n):                     # (cells, steps) at n cells per diameter
+            cells = eulerian_vertical_cells(self, n) * self.lateral_cells ** (self.dimension - 1)
+            per_step = n / self.diameter + (self.dimension - 1) * self.lateral_cells / self.side      # Σ_a 1/Δx_a
+            return cells, (self.t_end + self.settle) * self.contact_wave_speed() * per_step / self.cfl
+
+        def fits(n):
+            cells, steps = cost(n)
+            return cells * steps <= MAX_CELL_STEPS and steps <= MAX_STEPS
+        if not fits(self.cells_per_d):
+            cells, steps = cost(self.cells_per_d)
+            n_max = next((n for n in range(self.cells_per_d - 1, 0, -1) if fits(n)), None)
+            rng = f"integers in [1, {n_max}]" if n_max else "none fits"
+            raise ValueError(f"cells_per_d = {self.cells_per_d!r} is outside the valid range at these settings, {rng}: "
+                             f"the run would take about {cells * steps:.2g} cell-steps ({cells} cells, {steps:.2g} "
+                             f"steps; at most {MAX_CELL_STEPS:.0e} and {MAX_STEPS:.0e}: fewer cells per d or across, "
+                             "fewer cycles)")
