@@ -553,6 +553,44 @@ def test_resume_refuses_a_checkpoint_of_another_version(tmp_path, capsys):
     assert len(lines) == 1 and "written by bsrflow 0.0.1" in lines[0]
 
 
+@pytest.mark.parametrize("edit, words", [
+    (lambda ck: {"t": -1.0}, "has t = -1.0 s, outside the valid range (0, t_end = 0.1) s"),
+    (lambda ck: {"t": float("nan")}, "has t = nan s, outside the valid range (0, t_end = 0.1) s"),
+    (lambda ck: {"fields": {**ck.fields, "u": np.where(np.arange(ck.fields["u"].size) == 3, np.nan, ck.fields["u"])}},
+     "has 1 non-finite value(s) (NaN or inf) of 584 in its field 'u'"),
+    (lambda ck: {"fields": {**ck.fields, "rho": np.full_like(ck.fields["rho"], np.inf)}},
+     "has 584 non-finite value(s) (NaN or inf) of 584 in its field 'rho'"),
+    (lambda ck: {"steps": -5}, "has steps = -5, outside the valid range: integers >= 0"),
+])
+def test_resume_refuses_a_hand_edited_checkpoint(tmp_path, capsys, edit, words):
+    """A checkpoint with t = -1 was resumed (exit 0), one with NaN fields ran (a NaN snapshot
+    before the stop, a fuzzing review): refused up front in one line naming the checkpoint and
+    what is wrong, exit 2, the output and the checkpoint left as they were."""
+    from dataclasses import replace
+
+    from bsrflow.io.checkpoint import read_checkpoint, write_checkpoint
+
+    def stop(t):
+        if t >= 0.05:
+            raise _Stop()
+    cfg_path = write_config(tmp_path / "c.toml")
+    out = tmp_path / "c.nc"
+    with pytest.raises(_Stop):
+        run_config(load_config(cfg_path), out, progress=stop)
+    ck_file = str(out) + ".ckpt"
+    ck = read_checkpoint(ck_file)
+    write_checkpoint(ck_file, replace(ck, **edit(ck)))
+    before = out.read_bytes(), open(ck_file, "rb").read()
+    assert main(["run", str(cfg_path), "--out", str(out), "--resume"]) == 2
+    captured = capsys.readouterr()
+    lines = captured.err.strip().splitlines()
+    assert lines == [f"bsrflow run: error: --resume: the checkpoint {ck_file} {words}; run without --resume to "
+                     "start over"], lines
+    assert captured.out == ""
+    assert (out.read_bytes(), open(ck_file, "rb").read()) == before
+    assert sorted(os.listdir(tmp_path)) == ["c.nc", "c.nc.ckpt", "c.toml"]
+
+
 def test_a_packing_run_that_stops_records_its_steps(tmp_path, capsys):
     """A packing run stopped by its monitor (points crossed: a tap of 20 d on a contact 1000
     times too soft) exits 3, keeps its snapshots and records its steps (the attribute was

@@ -306,7 +306,29 @@ def _read_matching_checkpoint(job: RunJob, ckpt_file) -> Checkpoint:
         raise ConfigError("--resume", f"the config differs from the checkpoint's in {diff}; resume with "
                           "the same config or run without --resume to start over")
     check_checkpoint_version(ck, ckpt_file)
+    check_checkpoint_values(ck, ckpt_file, float(job.t_end))
     return ck
+
+
+def check_checkpoint_values(ck: Checkpoint, ckpt_file, t_end: float) -> None:
+    """Refuse (one line naming the checkpoint) numbers that no run writes, a hand-edited or damaged
+    file's: a time outside (0, t_end) (t = -1 was resumed), a field or tracer that is not finite (a
+    NaN field wrote a NaN snapshot before the monitor stopped the run), negative counts."""
+    def refuse(what):
+        return ConfigError("--resume", f"the checkpoint {ckpt_file} {what}; run without --resume to start over")
+    if not (np.isfinite(ck.t) and 0.0 < ck.t < t_end):
+        raise refuse(f"has t = {ck.t!r} s, outside the valid range (0, t_end = {t_end:g}) s")
+    for name, values in [*ck.fields.items(), ("tracers", ck.tracers)]:
+        values = np.asarray(values, float)
+        bad = int(np.count_nonzero(~np.isfinite(values)))
+        if bad:
+            what = "its tracer positions" if name == "tracers" else f"its field {name!r}"
+            raise refuse(f"has {bad} non-finite value(s) (NaN or inf) of {values.size} in {what}")
+    for name in ("steps", "rejected_steps", "n_snapshots"):
+        if getattr(ck, name) < 0:
+            raise refuse(f"has {name} = {getattr(ck, name)!r}, outside the valid range: integers >= 0")
+    if not (np.isfinite(ck.wall_time) and ck.wall_time >= 0.0):
+        raise refuse(f"has wall_time = {ck.wall_time!r} s, outside the valid range [0, inf) s")
 
 
 def check_checkpoint_version(ck: Checkpoint, ckpt_file) -> None:
