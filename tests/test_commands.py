@@ -537,3 +537,17 @@ def test_no_command_is_one_line_on_stderr(capsys):
     out, err = capsys.readouterr()
     assert out == "" and err.strip().splitlines() == ["bsrflow: error: a COMMAND is required; `bsrflow --help` "
                                                        "lists them"]
+
+
+@pytest.mark.parametrize("text", ["", "# my column, to be written\n\n   \n"])
+def test_an_empty_config_is_refused_pointing_at_init(tmp_path, capsys, text):
+    """A config without tables (a zero-byte file, only comments) ran the default tapped column
+    silently (a fuzzing review: most likely a mistyped or unsaved file): one line, exit 2, no output."""
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(text)
+    assert main(["run", str(cfg), "--out", str(tmp_path / "c.nc")]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err.strip().splitlines() == [
+        f"bsrflow run: error: {cfg}: the config has no tables (it is empty or only comments); `bsrflow init "
+        "NEW.toml` writes one with every field and its default"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.toml"]

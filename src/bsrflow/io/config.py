@@ -832,7 +832,8 @@ _TOML_POS = re.compile(r"\s*\(at line (\d+), column (\d+)\)\s*$")
 
 def load_config(path) -> Config:
     """Read and validate a TOML config file.  Raises :class:`ConfigError` (one line) for a missing
-    or unreadable file, a TOML syntax error (with the line number) or an invalid value."""
+    or unreadable file, a TOML syntax error (with the line number), a file without tables (empty or
+    only comments) or an invalid value."""
     path = os.fspath(path)
     try:
         with open(path, "rb") as fh:
@@ -854,6 +855,9 @@ def load_config(path) -> Config:
     except UnicodeDecodeError as exc:
         raise ConfigError(path, f"invalid TOML: the file is not UTF-8 text ({exc.reason} at byte "
                           f"{exc.start})") from None
+    if not data:          # a mistyped or unsaved file ran the default column silently
+        raise ConfigError(path, "the config has no tables (it is empty or only comments); `bsrflow init "
+                          "NEW.toml` writes one with every field and its default")
     return Config.from_dict(data, source=path)
 
 
