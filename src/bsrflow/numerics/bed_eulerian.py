@@ -19,8 +19,15 @@ spheres), p, μ, λ, κ and γ the kinetic theory's (granular_bed), and the visc
 Scheme (one axis at a time, summed, unsplit; SSP-RK3):
 
 * hyperbolic part: the n-D packing scheme's (minmod reconstruction of ρ, u, θ, δ_max, first order
-  at compaction faces, HLLE with the packing's wave bounds, no tension), the bounds widened by the
+  at compaction faces, the packing's HLLE wave bounds, no tension), the bounds widened by the
   kinetic sound speed c_k² = θ(Y + φY') + (2/3)θY² (p = ρθY(φ), E = (3/2)ρθ), the pressure P_c + p;
+  the HLLE flux across the horizontal axes, the HLLC flux (:func:`_hllc_z`: the contact wave
+  restored) along z.  (Until 2026-12-05, fourth session, HLLE along z too: its diffusion at the
+  contact smeared the flying bed's bottom edge over two or three cells, a dilute tail that reached
+  the floor early, and the column flew 21.1-23.0 ms at 2-16 cells per d against the Lagrangian
+  cells' 25.3 ms at Γ = 3; docs/model.md.  HLLE stays across the horizontal axes, whose faces
+  run along the landing's planar compaction front, where HLLC's exact contact is known to let
+  odd-even perturbations grow);
 * viscous stress and conduction at the faces: the face-normal derivatives by differences, the
   tangential ones the mean of the two cells' centred differences; face coefficients the mean of
   the two cells', none where either cell is below φ_min = 10⁻³ (mean free path above 40 d: no
@@ -34,14 +41,23 @@ Scheme (one axis at a time, summed, unsplit; SSP-RK3):
   A = 8(1 − e_d²)g0φ/(d√π)), θ ≥ 0, the momentum, energy and history of cells with
   ρ ≤ 10⁻¹² ρ_c cleared (their mass kept: mass is conserved to round-off), the history pass.
 
-Boundaries: periodic sides; the floor (mirror ghosts: u_z odd), which pushes but cannot pull (its
-face's normal momentum flux, the HLLE flux minus the viscous stress, is ≥ 0; that flux times the
-area is the floor force), with no heat flux but the collisions' loss (1 − e_w)p√(2θ/π) out of the
-bottom cells (:func:`bsrflow.physics.granular_bed.wall_loss`), no shear stress (free slip);
-a lid at the domain top (mirror ghosts, no stress and no heat flux there).  Time step
-(:func:`bed_stable_dt`, over the axes along which the state varies): the unsplit CFL bound
-cfl / max Σ_a (c + c_k + |u_a|)/Δx_a, and half the explicit limits of the conduction and the
-viscous stress with the face coefficients the operator uses.
+Boundaries: periodic sides; the floor (mirror ghosts: u_z odd; no mass, energy or history
+crosses it), which pushes but cannot pull: its face's normal momentum flux, the Riemann flux minus
+the viscous normal stress, is ≥ 0, and that stress may lower the Riemann flux (a packed bed
+starting to leave, as the Lagrangian cells' bottom stress does) but not raise it: as a bed's
+edge comes down, the mirror's gradient 2u_z/Δz across the floor's half cell is the closing of a
+gap, not a velocity gradient, and the Riemann flux carries the impact.  (With that push, and HLLE
+along z, the dilute edge cushioned the landing: at Γ = 3 and 4 cells per d the floor's force rose
+through 0.1 M g at phase 0.645 of the cycle, the Lagrangian cells' at 0.711, and without the push,
+with HLLC, at 0.696; docs/model.md.)  That flux times the area is the floor force.  No heat flux
+through the floor but the collisions' loss (1 − e_w)p√(2θ/π) out of the bottom cells
+(:func:`bsrflow.physics.granular_bed.wall_loss`), no shear stress (free slip).  A lid at the
+domain top (mirror ghosts, no stress, no heat flux and nothing but the normal momentum through
+it).  Time step (:func:`bed_stable_dt`, over the axes along which the state varies): the
+unsplit CFL bound cfl / max Σ_a (c + c_k + |u_a|)/Δx_a, c_k and |u_a| at the largest φ, θ and
+|u_a| of the cell and its neighbours (so that it bounds every face's waves), and half the
+explicit limits of the conduction and the viscous stress with the face coefficients the operator
+uses.
 
 A horizontally uniform state evolves exactly as the column (dim 1): every horizontal face of a
 uniform line computes the same numbers, so their differences are exact zeros, and the vertical
@@ -195,13 +211,47 @@ def _cell_index(axis, i, j, k, s):
     return i, j, k + s
 
 
+@numba.njit(cache=True, inline="always")
+def _hllc_z(SL, SR, rL, uL, PL, rR, uR, PR, uLa, uRa, thL, thR, hL, hR, out):
+    """HLLC fluxes at a vertical face (Toro, Spruce and Speares 1994; Batten et al. 1997) with the
+    HLLE bounds S_L, S_R: the contact speed S* = (P_R − P_L + ρ_L u_L(S_L − u_L) − ρ_R u_R(S_R −
+    u_R)) / (ρ_L(S_L − u_L) − ρ_R(S_R − u_R)) (0 between two vacua; held in [S_L, S_R]) and on the
+    side K of the face that S* leaves, F_K + S_K(U*_K − U_K) with ρ*_K = ρ_K(S_K − u_K)/(S_K − S*),
+    (ρu)* = ρ* S*; the horizontal velocities, θ and δ_max ride with the mass flux (their values per
+    mass of side K).  Returns (mass flux, normal momentum flux); writes the horizontal momenta's,
+    the energy's and the history's fluxes into out[1], out[2], out[4], out[5]."""
+    den = rL * (SL - uL) - rR * (SR - uR)
+    ss = (PR - PL + rL * uL * (SL - uL) - rR * uR * (SR - uR)) / den if den != 0.0 else 0.0
+    ss = min(max(ss, SL), SR)
+    if SL >= 0.0 or ss >= 0.0:
+        a = min(SL, 0.0)
+        chi = rL * (SL - uL) / (SL - ss) if a < 0.0 else rL
+        f_mass = rL * uL + a * (chi - rL)
+        f_mom = rL * uL * uL + PL + a * (chi * ss - rL * uL)
+        out[1] = f_mass * uLa[0]
+        out[2] = f_mass * uLa[1]
+        out[4] = f_mass * 1.5 * thL
+        out[5] = f_mass * hL
+    else:
+        a = max(SR, 0.0)
+        chi = rR * (SR - uR) / (SR - ss) if a > 0.0 else rR
+        f_mass = rR * uR + a * (chi - rR)
+        f_mom = rR * uR * uR + PR + a * (chi * ss - rR * uR)
+        out[1] = f_mass * uRa[0]
+        out[2] = f_mass * uRa[1]
+        out[4] = f_mass * 1.5 * thR
+        out[5] = f_mass * hR
+    return f_mass, f_mom
+
+
 @numba.njit(cache=True)
 def _face(w, co, G, axis, i, j, k, NX, NY, NZ, dx, par, out, sc):
     """Fluxes at the face between cell (i, j, k) and the next cell along ``axis`` (indices may be
     ghosts: periodic sides, mirrored in z).  out (11): the six conserved fields' fluxes (HLLE
-    minus the viscous stress, plus the conduction), the face velocity, the heating row, the
-    viscous normal stress, the HLLE normal momentum flux.  sc: scratch (46), part of the
-    caller's scratch row for its plane or line (allocating per face cost most of the step)."""
+    across x and y, HLLC along z, minus the viscous stress, plus the conduction), the face
+    velocity, the heating row, the viscous normal stress, the Riemann normal momentum flux.
+    sc: scratch (46), part of the caller's scratch row for its plane or line (allocating per face
+    cost most of the step)."""
     d, m, k1, k2, c_cap, rho_tiny, e, rho_s = par[0], par[1], par[2], par[3], par[4], par[5], par[6], par[7]
     # the four cells along the axis: l-1, l, r, r+1
     rr4 = sc[0:4]
@@ -247,17 +297,31 @@ def _face(w, co, G, axis, i, j, k, NX, NY, NZ, dx, par, out, sc):
     SL = min(SLp - ck, uL - ckL)
     SR = max(SRp + ck, uR + ckR)
     PL, PR = pL + kL, pR + kR
-    f_mass = pk.hlle_combine(SL, SR, rL * uL, rR * uR, rL, rR)
-    f_mom = pk.hlle_combine(SL, SR, rL * uL * uL + PL, rR * uR * uR + PR, rL * uL, rR * uR)
+    il, jl, kl = _cell_index(axis, i, j, k, 0)
+    lid = axis == 2 and kl == NZ - 1
+    floor = axis == 2 and kl == -1
+    if axis == 2:
+        # vertical faces: HLLC (the contact restored, so that the bed's edges stay sharp)
+        f_mass, f_mom = _hllc_z(SL, SR, rL, uL, PL, rR, uR, PR, uLa, uRa, thL, thR, hL, hR, out)
+    else:
+        # horizontal faces: HLLE (its dissipation along the landing's planar front: no odd-even decoupling)
+        f_mass = pk.hlle_combine(SL, SR, rL * uL, rR * uR, rL, rR)
+        f_mom = pk.hlle_combine(SL, SR, rL * uL * uL + PL, rR * uR * uR + PR, rL * uL, rR * uR)
+        for b in range(3):
+            if b != axis:
+                out[1 + b] = pk.hlle_combine(SL, SR, rL * uL * uLa[b], rR * uR * uRa[b], rL * uLa[b], rR * uRa[b])
+        out[4] = pk.hlle_combine(SL, SR, 1.5 * rL * thL * uL, 1.5 * rR * thR * uR, 1.5 * rL * thL, 1.5 * rR * thR)
+        out[5] = pk.hlle_combine(SL, SR, rL * uL * hL, rR * uR * hR, rL * hL, rR * hR)
+    if floor or lid:                              # walls: only the normal momentum crosses them
+        f_mass = 0.0
     f_mom = pk.no_tension(f_mass, f_mom, uL, uR)
     out[0] = f_mass
-    for b in range(3):
-        if b == axis:
-            out[1 + b] = f_mom
-        else:
-            out[1 + b] = pk.hlle_combine(SL, SR, rL * uL * uLa[b], rR * uR * uRa[b], rL * uLa[b], rR * uRa[b])
-    out[4] = pk.hlle_combine(SL, SR, 1.5 * rL * thL * uL, 1.5 * rR * thR * uR, 1.5 * rL * thL, 1.5 * rR * thR)
-    out[5] = pk.hlle_combine(SL, SR, rL * uL * hL, rR * uR * hR, rL * hL, rR * hR)
+    out[1 + axis] = f_mom
+    if floor or lid:
+        out[4] = 0.0
+        out[5] = 0.0
+        for b in range(2):
+            out[1 + b] = 0.0
     if vacL and vacR:
         out[6] = 0.0
     elif vacL:
@@ -268,12 +332,9 @@ def _face(w, co, G, axis, i, j, k, NX, NY, NZ, dx, par, out, sc):
         out[6] = 0.5 * (uL + uR)
     out[10] = f_mom
     # viscous stress and conduction
-    il, jl, kl = _cell_index(axis, i, j, k, 0)
     ir, jr, kr = _cell_index(axis, i, j, k, 1)
     mul = _at(co, 0, il, jl, kl, NX, NY, NZ, 1.0)
     mur = _at(co, 0, ir, jr, kr, NX, NY, NZ, 1.0)
-    lid = axis == 2 and kl == NZ - 1
-    floor = axis == 2 and kl == -1
     out[7] = 0.0
     out[9] = 0.0
     if mul > 0.0 and mur > 0.0 and not lid:
@@ -294,6 +355,8 @@ def _face(w, co, G, axis, i, j, k, NX, NY, NZ, dx, par, out, sc):
             tau[b] = muf * (Gf[axis, b] + Gf[b, axis])
             if b == axis:
                 tau[b] += (lamf - (2.0 / 3.0) * muf) * tr
+        if floor and tau[2] < 0.0:
+            tau[2] = 0.0                          # no viscous push from the floor (the Riemann flux's impact)
         if floor and f_mom - tau[2] < 0.0:
             tau[2] = f_mom                        # the floor cannot pull
         for b in range(3):
@@ -472,7 +535,13 @@ def bed_stable_dt(q, dim, dx, cfl, par, w, co):
     horizontally uniform bed takes the column's steps):
 
     * the unsplit scheme's CFL: Δt ≤ cfl / max over the cells of Σ_a (c + c_k + |u_a|)/Δx_a, c the
-      contact wave speed bound, c_k the kinetic sound speed;
+      contact wave speed bound, c_k the kinetic sound speed and |u_a| at the largest φ, θ and
+      |u_a| of the cell and its neighbours along the counted axes (a face's reconstructed states
+      lie between its two cells' values, and c_k grows with φ and θ up to g0's cap at φ = 0.95,
+      far above close packing: so the bound holds for the waves of every face of a cell with
+      mass, which the cell's own values, φ and θ being reconstructed independently, did not
+      quite do: up to 1.0002 of it, bench/check_face_wave_speed.py; cells without mass are
+      skipped, their faces bounded by their neighbours');
     * half the explicit limits of the conduction and the viscous stress with the face
       coefficients the operator uses (the mean of the two cells', none below φ_min; the floor's
       face viscous, not conducting; the lid's neither): Δt ≤ ½ (3/2)ρ_i / Σ_f κ_f/Δx_f² and
@@ -501,12 +570,28 @@ def bed_stable_dt(q, dim, dx, cfl, par, w, co):
                 r = w[0, i, j, k]
                 if not r > 0.0:
                     continue
-                ck = kinetic_sound_speed(r / rho_s, w[4, i, j, k], e)
-                rt = (c_cap + ck + abs(w[3, i, j, k])) / dx[2]
+                # the largest φ, θ and |u_b| of the cell and its neighbours along the counted axes:
+                # every face state of the cell lies between its two cells' values, and c_k grows
+                # with φ and θ, so this bounds the waves of the cell's faces
+                phm = r
+                thm = w[4, i, j, k]
+                ux, uy, uz = abs(w[1, i, j, k]), abs(w[2, i, j, k]), abs(w[3, i, j, k])
+                for a in range(3):
+                    if (a == 0 and not vx) or (a == 1 and not vy):
+                        continue
+                    for side in (-1, 1):
+                        ii, jj, kk = _cell_index(a, i, j, k, side)
+                        phm = max(phm, _at(w, 0, ii, jj, kk, NX, NY, NZ, 1.0))
+                        thm = max(thm, _at(w, 4, ii, jj, kk, NX, NY, NZ, 1.0))
+                        ux = max(ux, abs(_at(w, 1, ii, jj, kk, NX, NY, NZ, 1.0)))
+                        uy = max(uy, abs(_at(w, 2, ii, jj, kk, NX, NY, NZ, 1.0)))
+                        uz = max(uz, abs(_at(w, 3, ii, jj, kk, NX, NY, NZ, 1.0)))
+                ck = kinetic_sound_speed(phm / rho_s, thm, e)
+                rt = (c_cap + ck + uz) / dx[2]
                 if vx:
-                    rt += (c_cap + ck + abs(w[1, i, j, k])) / dx[0]
+                    rt += (c_cap + ck + ux) / dx[0]
                 if vy:
-                    rt += (c_cap + ck + abs(w[2, i, j, k])) / dx[1]
+                    rt += (c_cap + ck + uy) / dx[1]
                 rate = max(rate, rt)
                 mu0 = co[0, i, j, k]
                 if not mu0 > 0.0:
@@ -803,7 +888,9 @@ class EulerianBed:
     diameter above the bed at rest).  With the default lid (the energy bound's height), one-off
     runs of 2026-12-05 over 11 cycles kept at most 6.6e-6 there (the reference's bed, a column at
     4 cells per d, Γ = 1.5-8), 2e-6 (600 spheres, 1-4 cells per d, Γ = 3-8) and 2.5e-5 to 1.3e-4
-    (beds 1.0-1.2 d deep, 210-250 spheres, Γ = 3-8, a review's runs reaching 1e-4 too); a lid 2 d
+    (beds 1.0-1.2 d deep, 210-250 spheres, Γ = 3-8, a review's runs reaching 1e-4 too), with the
+    HLLC flux along z (the fourth session's one-off runs) 1.3e-5 (the reference's bed, Γ = 3 and
+    8) and 2.1e-5 (210-250 spheres, Γ = 8); a lid 2 d
     above a 600-sphere bed at Γ = 6 had the top cell at φ = 0.48 (a fuzzing review), one at 16 d
     0.4 % of the mass within a diameter of it."""
 

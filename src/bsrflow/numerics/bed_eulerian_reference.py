@@ -74,7 +74,8 @@ def _hlle(SL, SR, fL, fR, qL, qR):
 
 
 def axis_fluxes_numpy(prim, axis, kind, par):
-    """HLLE fluxes of the six conserved fields at the n + 1 faces along ``axis`` (0, 1, 2) and the
+    """Fluxes of the six conserved fields at the n + 1 faces along ``axis`` (0, 1, 2; HLLE across
+    the horizontal axes, HLLC along z, the walls passing only the normal momentum) and the
     face velocities u_f [m/s] (the work term's divergence), each of shape (..., n + 1) with
     ``axis`` moved last.  ``kind``: ``periodic`` or ``wall``."""
     r, u, th, h = prim
@@ -131,15 +132,41 @@ def axis_fluxes_numpy(prim, axis, kind, par):
     SR = np.maximum(np.maximum(uR + cR, uh + ch) + ck, uR + ckR)
     PL, PR = pL + kL, pR + kR
     f = {}
-    f[RHO] = _hlle(SL, SR, rL * uL, rR * uR, rL, rR)
-    fm = _hlle(SL, SR, rL * uL * uL + PL, rR * uR * uR + PR, rL * uL, rR * uR)
+    if axis == 2:
+        # vertical faces: HLLC with the same bounds (bed_eulerian._hllc_z)
+        den = rL * (SL - uL) - rR * (SR - uR)
+        ss = np.where(den != 0.0, (PR - PL + rL * uL * (SL - uL) - rR * uR * (SR - uR))
+                      / np.where(den != 0.0, den, 1.0), 0.0)
+        ss = np.minimum(np.maximum(ss, SL), SR)
+        left = (SL >= 0.0) | (ss >= 0.0)
+        aL_, aR_ = np.minimum(SL, 0.0), np.maximum(SR, 0.0)
+        with np.errstate(divide="ignore", invalid="ignore"):      # the side not taken may divide by 0
+            chiL = np.where(aL_ < 0.0, rL * (SL - uL) / np.where(aL_ < 0.0, SL - ss, 1.0), rL)
+            chiR = np.where(aR_ > 0.0, rR * (SR - uR) / np.where(aR_ > 0.0, SR - ss, 1.0), rR)
+        fmL = rL * uL + aL_ * (chiL - rL)
+        fmR = rR * uR + aR_ * (chiR - rR)
+        f[RHO] = np.where(left, fmL, fmR)
+        fm = np.where(left, rL * uL * uL + PL + aL_ * (chiL * ss - rL * uL),
+                      rR * uR * uR + PR + aR_ * (chiR * ss - rR * uR))
+        for c in trans:
+            aL, aR = st[c]
+            f[c] = np.where(left, fmL * aL, fmR * aR)
+        f[ENER] = np.where(left, fmL * 1.5 * thL, fmR * 1.5 * thR)
+        f[HIST] = np.where(left, fmL * hL, fmR * hR)
+    else:
+        f[RHO] = _hlle(SL, SR, rL * uL, rR * uR, rL, rR)
+        fm = _hlle(SL, SR, rL * uL * uL + PL, rR * uR * uR + PR, rL * uL, rR * uR)
+        for c in trans:
+            aL, aR = st[c]
+            f[c] = _hlle(SL, SR, rL * uL * aL, rR * uR * aR, rL * aL, rR * aR)
+        f[ENER] = _hlle(SL, SR, 1.5 * rL * thL * uL, 1.5 * rR * thR * uR, 1.5 * rL * thL, 1.5 * rR * thR)
+        f[HIST] = _hlle(SL, SR, rL * uL * hL, rR * uR * hR, rL * hL, rR * hR)
+    if kind == "wall":                                    # floor and lid: only the normal momentum crosses
+        for c in [RHO, ENER, HIST] + trans:
+            f[c][..., 0] = 0.0
+            f[c][..., -1] = 0.0
     adv = f[RHO] * np.where(f[RHO] > 0.0, uL, uR)
     f[normal] = np.maximum(fm, adv)                       # no tension (packing_kernels.no_tension)
-    for c in trans:
-        aL, aR = st[c]
-        f[c] = _hlle(SL, SR, rL * uL * aL, rR * uR * aR, rL * aL, rR * aR)
-    f[ENER] = _hlle(SL, SR, 1.5 * rL * thL * uL, 1.5 * rR * thR * uR, 1.5 * rL * thL, 1.5 * rR * thR)
-    f[HIST] = _hlle(SL, SR, rL * uL * hL, rR * uR * hR, rL * hL, rR * hR)
     uf = np.where(vacL & vacR, 0.0, np.where(vacL, uR, np.where(vacR, uL, 0.5 * (uL + uR))))
     return f, uf
 
@@ -219,7 +246,9 @@ def rhs_numpy(q, dim, dx, accel, par):
                 tau[b][..., -1] = 0.0
             qheat[..., 0] = 0.0
             qheat[..., -1] = 0.0
-            # the floor pushes but cannot pull: its face's normal momentum flux ≥ 0
+            # the floor gives no viscous push (the Riemann flux carries the impact), and it
+            # pushes but cannot pull: its face's normal momentum flux ≥ 0
+            tau[2][..., 0] = np.maximum(tau[2][..., 0], 0.0)
             f0 = f[MZ][..., 0] - tau[2][..., 0]
             tau[2][..., 0] = np.where(f0 < 0.0, f[MZ][..., 0], tau[2][..., 0])
             floor = np.maximum(f0, 0.0)
@@ -276,15 +305,26 @@ def _varies_numpy(q, axis):
 def stable_dt_numpy(q, dim, dx, par):
     """Δt (:func:`bsrflow.numerics.bed_eulerian.bed_stable_dt`'s rules): over the axes along which
     the state varies (z, and x / y where neighbouring cells differ), cfl / max Σ_a (c + c_k +
-    |u_a|)/Δx_a, and half the explicit limits of the conduction and the viscous stress with the
+    |u_a|)/Δx_a (c_k and |u_a| at the largest φ, θ, |u_a| of the cell and its neighbours along
+    those axes), and half the explicit limits of the conduction and the viscous stress with the
     operator's face coefficients (the mean of the two cells', none below φ_min; the floor's face
     viscous only, the lid's neither)."""
     prim = primitives_numpy(q, par["rho_tiny"])
     r, u, th, h = prim
     axes = [2] + [a for a in range(dim - 1) if _varies_numpy(q, a)]
     has = r > 0.0
-    ck = kinetic_sound_speed_numpy(r / par["rho_s"], th, par["e"])
-    rate = sum((par["c_cap"] + ck + np.abs(u[a])) / dx[a] for a in axes)
+    # the largest φ, θ, |u_b| of each cell and its neighbours along the counted axes
+    phm, thm, um = r.copy(), th.copy(), [np.abs(u[b]) for b in range(3)]
+    for a in axes:
+        mv = lambda x: np.moveaxis(x, a, -1)                                       # noqa: E731
+        n = mv(r).shape[-1]
+        for side in (-1, 1):
+            nb = lambda x: np.moveaxis(_pad(mv(x), _axis_kind(a))[..., 2 + side:n + 2 + side], -1, a)  # noqa: E731
+            phm = np.maximum(phm, nb(r))
+            thm = np.maximum(thm, nb(th))
+            um = [np.maximum(um[b], np.abs(nb(u[b]))) for b in range(3)]
+    ck = kinetic_sound_speed_numpy(phm / par["rho_s"], thm, par["e"])
+    rate = sum((par["c_cap"] + ck + um[a]) / dx[a] for a in axes)
     rate = float(np.max(np.where(has, rate, 0.0)))
     dt = par["cfl"] / rate if rate > 0.0 else par["cfl"] * dx[2] / par["c_cap"]
     coef = transport_numpy(prim, par)
