@@ -534,11 +534,8 @@ def test_resume_of_a_finished_run_does_nothing(tmp_path, capsys, kind):
     assert out.read_bytes() == before
 
 
-def test_resume_refuses_a_checkpoint_of_another_version(tmp_path, capsys):
-    from dataclasses import replace
-
-    from bsrflow.io.checkpoint import read_checkpoint, write_checkpoint
-
+def _run_stopped_halfway(tmp_path):
+    """(config path, output path, checkpoint path) of the default column run stopped at t = 0.05 s."""
     def stop(t):
         if t >= 0.05:
             raise _Stop()
@@ -546,7 +543,15 @@ def test_resume_refuses_a_checkpoint_of_another_version(tmp_path, capsys):
     out = tmp_path / "c.nc"
     with pytest.raises(_Stop):
         run_config(load_config(cfg_path), out, progress=stop)
-    ck_file = str(out) + ".ckpt"
+    return cfg_path, out, str(out) + ".ckpt"
+
+
+def test_resume_refuses_a_checkpoint_of_another_version(tmp_path, capsys):
+    from dataclasses import replace
+
+    from bsrflow.io.checkpoint import read_checkpoint, write_checkpoint
+
+    cfg_path, out, ck_file = _run_stopped_halfway(tmp_path)
     write_checkpoint(ck_file, replace(read_checkpoint(ck_file), version="0.0.1"))
     assert main(["run", str(cfg_path), "--out", str(out), "--resume"]) == 2
     lines = capsys.readouterr().err.strip().splitlines()
@@ -570,14 +575,7 @@ def test_resume_refuses_a_hand_edited_checkpoint(tmp_path, capsys, edit, words):
 
     from bsrflow.io.checkpoint import read_checkpoint, write_checkpoint
 
-    def stop(t):
-        if t >= 0.05:
-            raise _Stop()
-    cfg_path = write_config(tmp_path / "c.toml")
-    out = tmp_path / "c.nc"
-    with pytest.raises(_Stop):
-        run_config(load_config(cfg_path), out, progress=stop)
-    ck_file = str(out) + ".ckpt"
+    cfg_path, out, ck_file = _run_stopped_halfway(tmp_path)
     ck = read_checkpoint(ck_file)
     write_checkpoint(ck_file, replace(ck, **edit(ck)))
     before = out.read_bytes(), open(ck_file, "rb").read()

@@ -224,23 +224,22 @@ def _hllc_z(SL, SR, rL, uL, PL, rR, uR, PR, uLa, uRa, thL, thR, hL, hR, out):
     ss = (PR - PL + rL * uL * (SL - uL) - rR * uR * (SR - uR)) / den if den != 0.0 else 0.0
     ss = min(max(ss, SL), SR)
     if SL >= 0.0 or ss >= 0.0:
-        a = min(SL, 0.0)
-        chi = rL * (SL - uL) / (SL - ss) if a < 0.0 else rL
-        f_mass = rL * uL + a * (chi - rL)
-        f_mom = rL * uL * uL + PL + a * (chi * ss - rL * uL)
-        out[1] = f_mass * uLa[0]
-        out[2] = f_mass * uLa[1]
-        out[4] = f_mass * 1.5 * thL
-        out[5] = f_mass * hL
-    else:
-        a = max(SR, 0.0)
-        chi = rR * (SR - uR) / (SR - ss) if a > 0.0 else rR
-        f_mass = rR * uR + a * (chi - rR)
-        f_mom = rR * uR * uR + PR + a * (chi * ss - rR * uR)
-        out[1] = f_mass * uRa[0]
-        out[2] = f_mass * uRa[1]
-        out[4] = f_mass * 1.5 * thR
-        out[5] = f_mass * hR
+        return _hllc_side(min(SL, 0.0), SL, rL, uL, PL, ss, uLa, thL, hL, out)
+    return _hllc_side(max(SR, 0.0), SR, rR, uR, PR, ss, uRa, thR, hR, out)
+
+
+@numba.njit(cache=True, inline="always")
+def _hllc_side(a, S, r, u, P, ss, ua, th, h, out):
+    """:func:`_hllc_z`'s flux from side K (wave speed S = S_K, a = S_K if the star state of side K
+    is in the face, else 0): F_K + a(U*_K − U_K); (mass flux, normal momentum flux), the passive
+    fields' fluxes into ``out``."""
+    chi = r * (S - u) / (S - ss) if a != 0.0 else r
+    f_mass = r * u + a * (chi - r)
+    f_mom = r * u * u + P + a * (chi * ss - r * u)
+    out[1] = f_mass * ua[0]
+    out[2] = f_mass * ua[1]
+    out[4] = f_mass * 1.5 * th
+    out[5] = f_mass * h
     return f_mass, f_mom
 
 
