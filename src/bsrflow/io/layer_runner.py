@@ -197,17 +197,14 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
         msg = str(exc).splitlines()[0]
         if isinstance(exc, ArithmeticError):
             msg = f"the setup's numbers overflow or divide by zero ({type(exc).__name__})"
+        problem = None
         if kind not in BED_KINDS:        # a grid too large, or a bound of the field the user set
             raw = _unchecked_setup(cls, kw)
             problem = _size_problem(kind, raw, given) or _reblamed(kind, raw, given, msg)
-            if problem is None and isinstance(exc, ArithmeticError):
-                problem = _bed_reblamed(cls, kw, given, msg)
-            if problem:
-                raise ConfigError(*problem) from None
-        else:
-            problem = _bed_reblamed(cls, kw, given, msg)
-            if problem:
-                raise ConfigError(*problem) from None
+        if problem is None and (kind in BED_KINDS or isinstance(exc, ArithmeticError)):
+            problem = _bed_reblamed(cls, kw, given, msg)     # a check across fields: the given field that mends it
+        if problem:
+            raise ConfigError(*problem) from None
         field = next((k for k in kw if msg.startswith(k)), None)
         raise ConfigError(f"layer.{field}" if field else "layer", msg) from None
     if kind in ("tapped_layer", "vibrated_box") and setup.domain_height == 0:   # (the class takes 0 as not given)
@@ -257,12 +254,10 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
                           "rho and u on the grid, is written in every file)")
     t_end = float(setup.t_end)
     if float(setup.save_every) > t_end:
-        if kind in BED_KINDS and "save_every" not in layer:
-            raise ConfigError("layer.save_every", f"not given: its default {GRANULAR_BED_SAVE_EVERY:g} s is outside the "
-                              f"valid range (0, t_end = {t_end:g}] s (t_end = cycles / frequency); set it")
         if "save_every" not in layer:
+            why = " (t_end = cycles / frequency)" if kind in BED_KINDS else ""
             raise ConfigError("layer.save_every", f"not given: its default {setup.save_every:g} s is outside the "
-                              f"valid range (0, t_end = {t_end:g}] s; set it")
+                              f"valid range (0, t_end = {t_end:g}] s{why}; set it")
         raise ConfigError("layer.save_every", f"{setup.save_every!r} is outside the valid range (0, t_end = {t_end:g}] s")
     ck = out.get("checkpoint_every")
     if ck is not None:

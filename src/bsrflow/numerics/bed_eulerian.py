@@ -313,14 +313,10 @@ def _face(w, co, G, axis, i, j, k, NX, NY, NZ, dx, par, out, sc):
         out[5] = pk.hlle_combine(SL, SR, rL * uL * hL, rR * uR * hR, rL * hL, rR * hR)
     if floor or lid:                              # walls: only the normal momentum crosses them
         f_mass = 0.0
+        out[1] = out[2] = out[4] = out[5] = 0.0
     f_mom = pk.no_tension(f_mass, f_mom, uL, uR)
     out[0] = f_mass
     out[1 + axis] = f_mom
-    if floor or lid:
-        out[4] = 0.0
-        out[5] = 0.0
-        for b in range(2):
-            out[1 + b] = 0.0
     if vacL and vacR:
         out[6] = 0.0
     elif vacL:

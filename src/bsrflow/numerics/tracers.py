@@ -29,8 +29,8 @@ def tracer_velocity(q, px, py, pz, lo, dx, rho_tiny, out):
     ``out`` (3), cells of size dx (3) [m] per axis: the trilinear (bilinear in 2-D) interpolation
     of the momentum divided by that of the density over the surrounding cell centres,
     u = Σ w ρu / Σ w ρ, so that empty cells do not pull a tracer at the bed's edge towards rest;
-    0 where Σ w ρ ≤ ``rho_tiny``.  Periodic sides; below the lowest and above the highest cell centres the floor's and the lid's mirror cells
-    (ρ even, u_z odd), so u_z is 0 at the floor.  NumPy twin:
+    0 where Σ w ρ ≤ ``rho_tiny``.  Periodic sides; below the lowest and above the highest cell
+    centres the floor's and the lid's mirror cells (ρ even, u_z odd), so u_z is 0 at the floor.  NumPy twin:
     :func:`bsrflow.numerics.packing_reference.tracer_velocity_numpy`."""
     _, NX, NY, NZ = q.shape
     sx = (px - lo[0]) / dx[0] - 0.5
