@@ -94,6 +94,40 @@ def test_a_packing_box_narrower_than_three_cells_names_box_width(tmp_path, capsy
     assert stated_range(err)[0] == pytest.approx(0.00375)
 
 
+@pytest.mark.parametrize("kind", ["tapped_layer", "vibrated_box"])
+def test_a_field_outside_its_own_range_is_named_before_the_grid_size(kind, tmp_path, capsys):
+    """gravity = 1e-9 raises the energy bound's domain height past any grid; the message blamed the
+    grid's size without naming gravity (a fuzzing review's note, mended 2026-12-05)."""
+    err = refused(tmp_path, capsys, f'[layer]\nkind = "{kind}"\ngravity = 1e-9\n')
+    assert err == "bsrflow run: error: layer.gravity: gravity = 1e-09 is outside the valid range [0.001, 10000] m/s^2"
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_box_under_three_cells_that_no_box_mends_is_not_given_a_range(dim, tmp_path, capsys):
+    """box_width = 1e-7 m with cells_per_diameter = 100000: the box is 2 cells of 5e-8 m, and at 3
+    cells the grid (3-D) or the number of steps (2-D) is too large. The message gave
+    cells_per_diameter (then box_width) a range that the other check refused; it now says that both
+    must change (a fuzzing review's note, mended 2026-12-05)."""
+    text = f'[layer]\nkind = "packing_bed"\ndim = {dim}\ncells_per_diameter = 100000\nbox_width = 1e-7\n'
+    err = refused(tmp_path, capsys, text)
+    assert err.startswith("bsrflow run: error: layer: box_width = 1e-07 m is less than 3 cells of Δx = diameter / "
+                          "cells_per_diameter = 5e-08 m, and at 3 cells the "), err
+    assert err.endswith("lower cells_per_diameter and keep box_width >= 3 diameter / cells_per_diameter")
+    assert ("grid would have" if dim == 3 else "time steps") in err
+    with pytest.raises(ConfigError):                 # the box at 3 cells alone does not mend it
+        loads(tmp_path, text.replace("1e-7", "1.5e-7"))
+
+
+def test_a_box_under_three_cells_states_a_range_whose_ends_load(tmp_path, capsys):
+    text = '[layer]\nkind = "packing_bed"\ncells_per_diameter = 10\nbox_width = 1e-7\n'
+    err = refused(tmp_path, capsys, text)
+    assert err.startswith("bsrflow run: error: layer.box_width: 1e-07 m is outside the valid range at these "
+                          "settings, [0.0015, "), err
+    lo, hi = stated_range(err)
+    for width in (lo, hi):
+        assert loads(tmp_path, text.replace("1e-7", repr(width)))
+
+
 # -- 2. the field the user set, with a non-empty range ----------------------------------------------
 
 @pytest.mark.parametrize("text, field", [

@@ -536,7 +536,21 @@ def _size_inputs_ok(kind: str, s) -> bool:
             and _finite(s.surface_perturbation) and 0.0 <= s.surface_perturbation <= 0.5
             and _finite(s.frequency) and FREQUENCY_RANGE[0] <= s.frequency <= FREQUENCY_RANGE[1]
             and _finite(getattr(s, drive)) and getattr(s, drive) >= 0.0
-            and (s.domain_height is None or (_finite(s.domain_height) and s.domain_height > 0)))
+            and (s.domain_height is None or (_finite(s.domain_height) and s.domain_height > 0))
+            and all(_in_static_range(_RANGES[kind].get(k), getattr(s, k)) for k in _SIZE_FIELDS[kind]))
+
+
+def _in_static_range(spec, value) -> bool:
+    """True when ``value`` lies in the static range ``spec`` (a :class:`_Range`; anything else is
+    not checked here): a field outside its own range is named by the scenario class, not blamed
+    for the grid's size (``gravity = 1e-9`` raises the energy bound's domain height)."""
+    if not isinstance(spec, _Range) or value is None:
+        return True
+    if not _finite(value):
+        return False
+    above = value > spec.lo if spec.lo_open else value >= spec.lo
+    below = value < spec.hi if spec.hi_open else value <= spec.hi
+    return above and below
 
 
 def _grid_size(kind: str, s):
@@ -560,11 +574,16 @@ def _grid_size(kind: str, s):
 
 
 def _grid_fits(kind: str, s) -> bool:
+    """True when the grid of the layer ``s`` is not too large and its box and height hold the
+    fewest cells the scenario class accepts (the bounds of :func:`_diameter_max`), so that a range
+    stated for one field is one the class accepts too."""
     try:
-        cells, rest, _, _ = _grid_size(kind, s)
+        cells, rest, dx, _ = _grid_size(kind, s)
+        d_max = _diameter_max(kind, s)
     except (ArithmeticError, TypeError, ValueError):
         return False
-    return cells <= MAX_LAYER_CELLS and (rest is None or rest <= MAX_RESTING_CELLS)
+    return (cells <= MAX_LAYER_CELLS and (rest is None or rest <= MAX_RESTING_CELLS)
+            and s.diameter <= d_max * (1.0 + 1e-12))
 
 
 def _count_text(n) -> str:
@@ -736,6 +755,9 @@ def _reblamed(kind: str, s, given, msg: str):
     """(field, message) naming the field the config gives when the scenario class, refusing the
     unchecked layer ``s`` with ``msg``, names one it does not (a packing bed's stiffness, the
     heights or the box for a diameter), or a range that no value fills; else None."""
+    if kind == "packing_bed" and "box_width" in given and _size_inputs_ok(kind, s) \
+            and round(s.box_width / s.dx) < 3:
+        return _narrow_box_problem(s, given)     # (the class leaves 1-2 cells to the grid's check, after its others)
     if kind == "packing_bed" and msg.startswith("stiffness = "):
         return _stiffness_reblamed(s, given)
     for blamed in ("box_width", "bed_height", "layer_height"):
@@ -916,17 +938,38 @@ def _stiffness_reblamed(s, given):
 
 
 def _narrow_box_problem(setup, given):
-    """(field, message) of a packing bed whose box is narrower than the three cells a grid needs
-    (the box width if the config gives it, else the diameter)."""
-    dx, c = setup.dx, setup.cells_per_diameter
-    if "box_width" in given:
+    """(field, message) of a packing bed whose box is narrower than the three cells a grid needs:
+    the box width if the config gives it and a box of 3 or more cells mends the bed, else the
+    diameter if its range is not empty, else the layer with what else must change."""
+    from ..physics.packing_bed import MAX_STEPS
+    dx = setup.dx
+    three = _with(setup, "box_width", 3 * dx)
+    cells = _grid_size("packing_bed", three)[0]
+    try:
+        steps = _packing_measures(three)[1]
+    except (ArithmeticError, TypeError, ValueError):
+        steps = None                     # (a diameter of 1e300: the grid's check below refuses it)
+    too_many_steps = steps is not None and steps > MAX_STEPS
+    if "box_width" in given and not too_many_steps and _grid_fits("packing_bed", three):
         n_hi = _edge(lambda n: _grid_fits("packing_bed", _with(setup, "box_width", n * dx)), 3, 2 ** 62, integer=True)
         return "layer.box_width", (f"{setup.box_width!r} m is outside the valid range at these settings, "
                                    f"[{3 * dx:.6g}, {n_hi * dx:.6g}] m (whole cells of Δx = {dx:.6g} m): the grid "
                                    "needs at least 3 cells across")
-    return "layer.diameter", (f"{setup.diameter!r} m is outside the valid range at these settings, "
-                              f"{_diameter_range_text('packing_bed', setup)}: the box (box_width = {setup.box_width!r} "
-                              "m) must be at least 3 cells of Δx = diameter / cells_per_diameter")
+    rng = _diameter_range_text("packing_bed", setup)
+    if rng is not None and not too_many_steps and ("diameter" in given or "box_width" not in given):
+        return "layer.diameter", (f"{setup.diameter!r} m is outside the valid range at these settings, {rng}: the box "
+                                  f"(box_width = {setup.box_width!r} m) must be at least 3 cells of Δx = diameter / "
+                                  "cells_per_diameter")
+    fix = "lower cells_per_diameter and keep box_width >= 3 diameter / cells_per_diameter"
+    if cells > MAX_LAYER_CELLS:
+        why = f"the grid would have {_count_text(cells)} cells (at most {MAX_LAYER_CELLS:.0e})"
+    elif too_many_steps:
+        why = f"the run would take about {steps:.2g} time steps (at most {MAX_STEPS:.0e})"
+    else:
+        why = f"the bed (bed_height = {setup.bed_height!r} m) would be less than two cells tall"
+        fix = "the box needs at least 3 and the bed 2 cells of Δx"
+    return "layer", (f"box_width = {setup.box_width!r} m is less than 3 cells of Δx = diameter / cells_per_diameter "
+                     f"= {dx:.6g} m, and at 3 cells {why}: {fix}")
 
 
 def _tracer_positions(table, setup):
