@@ -95,7 +95,7 @@ N_FIELDS = 6
 PHI_MIN = 1e-3
 """Below this solid fraction no viscous stress and no conduction (mean free path d/(6√2φg0) > 40 d)."""
 SQRT_PI = math.sqrt(math.pi)
-SCRATCH = 68
+SCRATCH = 62
 """Floats of one scratch row of :func:`bed_rhs` (a face's outputs, the previous face's, _face's 46)."""
 
 
@@ -246,9 +246,9 @@ def _hllc_side(a, S, r, u, P, ss, ua, th, h, out):
 @numba.njit(cache=True)
 def _face(w, co, G, axis, i, j, k, NX, NY, NZ, dx, par, out, sc):
     """Fluxes at the face between cell (i, j, k) and the next cell along ``axis`` (indices may be
-    ghosts: periodic sides, mirrored in z).  out (11): the six conserved fields' fluxes (HLLE
+    ghosts: periodic sides, mirrored in z).  out (8): the six conserved fields' fluxes (HLLE
     across x and y, HLLC along z, minus the viscous stress, plus the conduction), the face
-    velocity, the heating row, the viscous normal stress, the Riemann normal momentum flux.
+    velocity, the heating row.
     sc: scratch (46), part of the caller's scratch row for its plane or line (allocating per face
     cost most of the step)."""
     d, m, k1, k2, c_cap, rho_tiny, e, rho_s = par[0], par[1], par[2], par[3], par[4], par[5], par[6], par[7]
@@ -325,13 +325,11 @@ def _face(w, co, G, axis, i, j, k, NX, NY, NZ, dx, par, out, sc):
         out[6] = uL
     else:
         out[6] = 0.5 * (uL + uR)
-    out[10] = f_mom
     # viscous stress and conduction
     ir, jr, kr = _cell_index(axis, i, j, k, 1)
     mul = _at(co, 0, il, jl, kl, NX, NY, NZ, 1.0)
     mur = _at(co, 0, ir, jr, kr, NX, NY, NZ, 1.0)
     out[7] = 0.0
-    out[9] = 0.0
     if mul > 0.0 and mur > 0.0 and not lid:
         muf = 0.5 * (mul + mur)
         lamf = 0.5 * (_at(co, 1, il, jl, kl, NX, NY, NZ, 1.0) + _at(co, 1, ir, jr, kr, NX, NY, NZ, 1.0))
@@ -357,7 +355,6 @@ def _face(w, co, G, axis, i, j, k, NX, NY, NZ, dx, par, out, sc):
         for b in range(3):
             out[1 + b] -= tau[b]
         out[7] = tau[0] * Gf[axis, 0] + tau[1] * Gf[axis, 1] + tau[2] * Gf[axis, 2]
-        out[9] = tau[axis]
         if not floor:
             out[4] += -kapf * (th4[2] - th4[1]) / dx[axis]
 
@@ -373,9 +370,9 @@ def _rhs_columns_plane(dq, w, co, G, div, heat, floor, scratch, dim, dx, par, i)
     i = np.int64(i)                       # (a prange index may be unsigned: keep the arithmetic integer)
     _gradients_plane(w, G, dx, dim, i)
     inv = 1.0 / dx[2]
-    out = scratch[i, 0:11]
-    prev = scratch[i, 11:22]
-    sc = scratch[i, 22:SCRATCH]
+    out = scratch[i, 0:8]
+    prev = scratch[i, 8:16]
+    sc = scratch[i, 16:SCRATCH]
     for j in range(NY):
         # vertical line: faces k − ½ for k = 0 … NZ (face k between cells k − 1 and k)
         for k in range(NZ + 1):
@@ -388,7 +385,7 @@ def _rhs_columns_plane(dq, w, co, G, div, heat, floor, scratch, dim, dx, par, i)
                     dq[c, i, j, kc] = -(out[c] - prev[c]) * inv
                 div[i, j, kc] = (out[6] - prev[6]) * inv
                 heat[i, j, kc] = 0.5 * (out[7] + prev[7])
-            for c in range(11):
+            for c in range(8):
                 prev[c] = out[c]
 
 
@@ -401,9 +398,9 @@ def _rhs_line(dq, w, co, G, div, heat, scratch, dx, par, axis, p):
     p = np.int64(p)                       # (a prange index may be unsigned: keep the arithmetic integer)
     nA = NX if axis == 0 else NY
     inv_h = 1.0 / dx[axis]
-    out = scratch[p, 0:11]
-    prev = scratch[p, 11:22]
-    sc = scratch[p, 22:SCRATCH]
+    out = scratch[p, 0:8]
+    prev = scratch[p, 8:16]
+    sc = scratch[p, 16:SCRATCH]
     jb = p // NZ
     kk = p - jb * NZ
     for ia in range(nA + 1):
@@ -418,7 +415,7 @@ def _rhs_line(dq, w, co, G, div, heat, scratch, dx, par, axis, p):
                 dq[c, ic, jc, kk] += -(out[c] - prev[c]) * inv_h
             div[ic, jc, kk] += (out[6] - prev[6]) * inv_h
             heat[ic, jc, kk] += 0.5 * (out[7] + prev[7])
-        for c in range(11):
+        for c in range(8):
             prev[c] = out[c]
 
 
