@@ -1150,4 +1150,8 @@ def test_compare_bed_runs_the_model_on_the_eulerian_grid_too(tmp_path):
     assert case["lateral_spread_max_over_d"] > 0.0 and abs(case["mass_error"]) < 1e-10
     assert len(case["lateral_spread_max_per_cycle_over_d"]) == 11
     assert max(case["lateral_spread_max_per_cycle_over_d"]) == case["lateral_spread_max_over_d"]
+    force = case["floor_force_over_weight"]                 # the flight measure's signal, as the cases'
+    assert force["phase"] == data["cases"][0]["floor_force_over_weight"]["phase"]
+    assert np.mean(force["continuum"]) == pytest.approx(1.0, abs=0.02)    # the floor carries the weight on average
+    assert min(force["continuum"]) < 0.1                   # the bed flies
     assert "eulerian_note" in data

@@ -901,7 +901,12 @@ def eulerian_case(setup: BedSetup, case: dict, lagrangian, dim=1, cells_per_d=4,
            "lateral_spread_max_per_cycle_over_d": [
                float(r["lateral_spread"][(r["t"] >= c * s.period - 1e-12) & (r["t"] <= (c + 1) * s.period + 1e-12)].max()
                      / s.diameter) for c in range(s.cycles)],
-           "mass_error": r["mass_error"], "steps": r["steps"], "wall_time_s": r["wall_time_s"]}
+           "mass_error": r["mass_error"], "steps": r["steps"], "wall_time_s": r["wall_time_s"],
+           "floor_force_over_weight": {
+               "phase": ((np.arange(FORCE_PHASE_BINS) + 0.5) / FORCE_PHASE_BINS).tolist(),
+               "continuum": force_by_phase(r["t"], r["floor_force"], s.n_spheres * s.sphere_mass * s.gravity,
+                                           s.period, s.cycles).tolist(),
+               "note": "as cases[].floor_force_over_weight, the Eulerian grid's floor force"}}
     if "dem_flight_time_s" in case and traj is not None:
         out.update({"dem_flight_time_s": case["dem_flight_time_s"],
                     "flight_time_rel_diff": flight / case["dem_flight_time_s"] - 1.0,
@@ -1130,11 +1135,16 @@ def _floor_force_figure(out, folder, plt, gamma=3.0):
             rows.append((style, label, c["floor_force_over_weight"]))
     if not rows:
         return
+    eulerian = [c for c in out.get("eulerian_cases", []) if c["gamma"] == gamma and "floor_force_over_weight" in c]
     fig, axes = plt.subplots(1, 2, figsize=(12, 4))
     for ax, top in zip(axes, (None, 0.6)):
         for style, label, f in rows:
-            ax.plot(f["phase"], f["continuum"], style, color="C0", label=f"continuum, {label}")
+            ax.plot(f["phase"], f["continuum"], style, color="C0", label=f"continuum (Lagrangian cells), {label}")
             ax.plot(f["phase"], f["dem"], style, color="C1", label=f"LIGGGHTS Walton–Braun, {label}")
+        for c in eulerian:
+            f = c["floor_force_over_weight"]
+            ax.plot(f["phase"], f["continuum"], "--", color="C2",
+                    label=f"continuum, Eulerian {c['dim']}-D, {c['cells_per_d']} cells per d, floor e = 0.9")
         ax.axhline(0.1, color="0.5", lw=0.8, label="flight threshold (0.1 M g)")
         ax.set_xlabel("floor phase [cycles] (floor at A sin 2π·phase)")
         if top is not None:
