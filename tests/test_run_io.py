@@ -589,6 +589,22 @@ def test_resume_refuses_a_hand_edited_checkpoint(tmp_path, capsys, edit, words):
     assert sorted(os.listdir(tmp_path)) == ["c.nc", "c.nc.ckpt", "c.toml"]
 
 
+def test_a_refused_resume_leaves_the_output_as_it_was(tmp_path, capsys):
+    """An output whose snapshots before the checkpoint are not the expected ones (a time set to
+    NaN) was refused only after the file had been rewritten without them (854 snapshots became
+    799, a fuzzing review): the snapshots are checked before the file is touched."""
+    import h5py
+
+    cfg_path, out, ck_file = _run_stopped_halfway(tmp_path)
+    with h5py.File(out, "r+") as h:
+        h["time"][1] = np.nan                     # before the checkpoint time (0.03 s)
+    before = out.read_bytes()
+    assert main(["run", str(cfg_path), "--out", str(out), "--resume"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "snapshots before the checkpoint time" in lines[0], lines
+    assert out.read_bytes() == before
+
+
 def test_a_packing_run_that_stops_records_its_steps(tmp_path, capsys):
     """A packing run stopped by its monitor (points crossed: a tap of 20 d on a contact 1000
     times too soft) exits 3, keeps its snapshots and records its steps (the attribute was

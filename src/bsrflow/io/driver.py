@@ -361,6 +361,14 @@ def _reopen_output(job: RunJob, t_ck: float):
     if diff:
         raise ConfigError("--resume", f"{out} was written by another config (it differs in {diff}); run "
                           "without --resume to start over")
+    expected = job.save_times[job.save_times < t_ck]
+
+    def check_kept(kept):
+        if kept.size != expected.size or not np.array_equal(kept, expected):
+            raise ConfigError("--resume", f"{out} holds {kept.size} snapshots before the checkpoint time "
+                              f"t = {t_ck:.6g} s, expected {expected.size}; run without --resume to start over")
+    times = output_times(out)
+    check_kept(times[times < t_ck])                # before the file is rewritten: a refusal leaves it as it was
     try:
         writer = job.reopen_writer(t_ck)
     except OutputPathError:                        # no room for the rewritten file: one line as it is
@@ -368,12 +376,24 @@ def _reopen_output(job: RunJob, t_ck: float):
     except Exception as exc:                       # unreadable or foreign file
         raise ConfigError("--resume", f"cannot reopen {out}: {type(exc).__name__}: {exc}; run without "
                           "--resume to start over") from None
-    kept, expected = writer.series("time"), job.save_times[job.save_times < t_ck]
-    if kept.size != expected.size or not np.array_equal(kept, expected):
+    try:
+        check_kept(writer.series("time"))
+    except ConfigError:
         writer.close("resume failed: snapshots missing before the checkpoint")
-        raise ConfigError("--resume", f"{out} holds {kept.size} snapshots before the checkpoint time "
-                          f"t = {t_ck:.6g} s, expected {expected.size}; run without --resume to start over")
+        raise
     return writer
+
+
+def output_times(path) -> np.ndarray:
+    """The ``time`` variable of an output file [s] (read alone); ConfigError ("--resume", one
+    line) when it cannot be read."""
+    import h5py
+    try:
+        with h5py.File(os.fspath(path), "r", locking=False) as h:
+            return np.asarray(h["time"][...], dtype=float).reshape(-1)
+    except Exception as exc:                       # truncated, garbage, not HDF5, no time variable
+        raise ConfigError("--resume", f"cannot reopen {path}: {type(exc).__name__}: {exc}; run without "
+                          "--resume to start over") from None
 
 
 @contextlib.contextmanager
