@@ -306,23 +306,30 @@ def _read_matching_checkpoint(job: RunJob, ckpt_file) -> Checkpoint:
         raise ConfigError("--resume", f"the config differs from the checkpoint's in {diff}; resume with "
                           "the same config or run without --resume to start over")
     check_checkpoint_version(ck, ckpt_file)
-    check_checkpoint_values(ck, ckpt_file, float(job.t_end))
+    check_checkpoint_values(ck, ckpt_file, float(job.t_end), job.checkpoint_times)
     return ck
 
 
-def check_checkpoint_values(ck: Checkpoint, ckpt_file, t_end: float) -> None:
+def check_checkpoint_values(ck: Checkpoint, ckpt_file, t_end: float, checkpoint_times=None) -> None:
     """Refuse (one line naming the checkpoint) numbers that no run writes, a hand-edited or damaged
-    file's: a time outside (0, t_end) (t = -1 was resumed), a field or tracer that is not finite (a
-    NaN field wrote a NaN snapshot before the monitor stopped the run), negative counts."""
+    file's: a time outside (0, t_end) (t = -1 was resumed) or, given the run's
+    ``checkpoint_times`` [s], not one of them (a checkpoint is written only there: t = 0.5003 s
+    was resumed as if the state were of that time), a field or tracer that is not a finite number
+    (a NaN field wrote a NaN snapshot before the monitor stopped the run), negative counts."""
     def refuse(what):
         return ConfigError("--resume", f"the checkpoint {ckpt_file} {what}; run without --resume to start over")
     if not (np.isfinite(ck.t) and 0.0 < ck.t < t_end):
         raise refuse(f"has t = {ck.t!r} s, outside the valid range (0, t_end = {t_end:g}) s")
+    if checkpoint_times is not None and not np.any(np.asarray(checkpoint_times, float) == ck.t):
+        raise refuse(f"has t = {ck.t!r} s, which is not one of this config's checkpoint times")
     for name, values in [*ck.fields.items(), ("tracers", ck.tracers)]:
-        values = np.asarray(values, float)
+        what = "its tracer positions" if name == "tracers" else f"its field {name!r}"
+        try:
+            values = np.asarray(values, float)
+        except (TypeError, ValueError):
+            raise refuse(f"has values that are not numbers in {what}") from None
         bad = int(np.count_nonzero(~np.isfinite(values)))
         if bad:
-            what = "its tracer positions" if name == "tracers" else f"its field {name!r}"
             raise refuse(f"has {bad} non-finite value(s) (NaN or inf) of {values.size} in {what}")
     for name in ("steps", "rejected_steps", "n_snapshots"):
         if getattr(ck, name) < 0:

@@ -1178,8 +1178,16 @@ class _ControllerJob(_LayerBase):
             self.disc.load_fields(ck.fields)
         except ValueError as exc:
             raise ConfigError("--resume", f"the checkpoint's state does not match the config: {exc}") from None
+        problem = self.disc.state_problem() if hasattr(self.disc, "state_problem") else None
+        if problem:
+            raise ConfigError("--resume", f"the checkpoint {checkpoint_path(self.out)} holds a state no run reaches "
+                              f"({problem}); run without --resume to start over")
         if self.tracers is not None:
-            self.disc.set_tracers(self._restored_tracers(ck))
+            try:
+                self.disc.set_tracers(self._restored_tracers(ck))
+            except ValueError as exc:
+                raise ConfigError("--resume", f"the checkpoint {checkpoint_path(self.out)}'s {exc}; run without "
+                                  "--resume to start over") from None
         self.disc.counters[0] = int(ck.steps)
         self.disc.steps = int(ck.steps)
 
@@ -1313,7 +1321,10 @@ def _run_files(cfg: LayerConfig, out):
     """(save times [s], checkpoint times [s], checkpoint file, VTK folder or None) of a layer run."""
     from ..numerics.solver import save_schedule
     try:
-        save_times = save_schedule(0.0, cfg.setup.t_end, cfg.setup.save_every)
+        kind = {v: k for k, v in _kind_classes().items()}[type(cfg.setup)]
+        spec = _RANGES[kind].get("save_every")
+        hi = spec.hi if isinstance(spec, _Range) else cfg.setup.t_end if "t_end" in str(spec) else np.inf
+        save_times = save_schedule(0.0, cfg.setup.t_end, cfg.setup.save_every, save_every_max=hi)
     except ValueError as exc:                    # too many snapshots: name the fields
         raise ConfigError("layer.save_every", f"{exc} (layer.t_end = {cfg.setup.t_end!r} s)") from None
     vtk_stem = os.path.splitext(out)[0] + "_vtk" if cfg.vtk else None

@@ -991,6 +991,18 @@ class EulerianBed:
         from .controller import restore_named_fields
         restore_named_fields(self.fields, fields)
 
+    def state_problem(self) -> str | None:
+        """What makes the state one that no run reaches (a checkpoint edited or damaged by hand),
+        in words, or None: ρ, E and ρδ_max ≥ 0 in every cell, and the bed's mass the setup's (it is
+        conserved to round-off: 1e-9 relative allowed)."""
+        for c, name in ((RHO, "density"), (ENER, "energy"), (HIST, "history rho delta_max")):
+            if np.any(self.q[c] < 0.0):
+                return f"q: the {name} is negative in {int(np.count_nonzero(self.q[c] < 0.0))} cell(s)"
+        mass = float(self.q[RHO].sum())
+        if not abs(mass / self.mass0 - 1.0) <= 1e-9:
+            return f"q: the bed's mass is {mass / self.mass0:.6g} of the config's (a run conserves it to round-off)"
+        return None
+
     def output_schema(self) -> dict:
         """The state written with every snapshot (``state_<name>``): the grid's fields with units,
         on the dimensions ``grid_x``, ``grid_y``, ``grid_z`` (cell centres at (i + ½)Δ, the cell

@@ -490,6 +490,22 @@ class GranularBedColumn:
         """Restore :attr:`fields` (ValueError naming the first that is missing or of another shape)."""
         restore_named_fields(self.fields, fields)
 
+    def state_problem(self) -> str | None:
+        """What makes the state one that no run reaches (a checkpoint edited or damaged by hand),
+        in words, or None: the faces must rise from the floor (z_0 ≥ 0, each above the last), θ ≥ 0,
+        δ_max ≥ 0 and the next step Δt > 0."""
+        dz = np.diff(self.zf)
+        if self.zf[0] < 0.0 or np.any(dz <= 0.0):
+            k = int(np.argmax(dz <= 0.0)) + 1 if np.any(dz <= 0.0) else 0
+            return f"face_height: face {k} at {self.zf[k]:.6g} m is not above the one below it (or the floor)"
+        for name, arr in (("theta", self.th), ("delta_max", self.hist)):
+            if np.any(arr < 0.0):
+                k = int(np.argmax(arr < 0.0))
+                return f"{name}: cell {k} holds {arr[k]:.6g}, outside the valid range [0, inf)"
+        if not self.dt_next[0] > 0.0:
+            return f"dt_next = {self.dt_next[0]:.6g} s, outside the valid range (0, inf) s"
+        return None
+
     def output_schema(self) -> dict:
         """The state written with every snapshot (``state_<name>`` in the file): the cells and faces
         of the Lagrangian state, θ included, and the floor's force."""
