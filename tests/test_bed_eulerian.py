@@ -369,6 +369,26 @@ def test_bad_settings_are_refused_in_one_line(kw, name):
     assert msg.startswith(name + " = ") and "valid range" in msg and "\n" not in msg
 
 
+@pytest.mark.parametrize("dim, lateral, cells_per_d, height, name, hi", [
+    (3, 256, 64, 1.0, "cells_per_d", 1), (2, 256, 64, 100.0, "cells_per_d", 3), (3, 256, 16, 100.0, "lateral_cells", None)])
+def test_a_grid_beyond_the_memory_bound_is_refused_before_it_is_made(dim, lateral, cells_per_d, height, name, hi):
+    """A 256 x 256 x 12 800 grid (frequency 10 kHz, one cycle: few steps, so the cell-step bound
+    let it through) asked for 37.5 GB and ended in a traceback (a fuzzing review): the cells are
+    bounded by MAX_EULERIAN_CELLS (360 bytes each), the message naming the field with its range,
+    or the lateral cells when no cells per d fits; the range's end is accepted."""
+    from bsrflow.physics.granular_bed import MAX_EULERIAN_CELLS, EulerianBedSetup
+    kw = dict(dimension=dim, lateral_cells=lateral, cells_per_d=cells_per_d, frequency=1e4, cycles=1,
+              save_every=1e-4, output_height=height)
+    with pytest.raises(ValueError) as exc:
+        EulerianBedSetup(**kw)
+    msg = str(exc.value)
+    assert msg.startswith(f"{name} = ") and f"(at most {MAX_EULERIAN_CELLS:.0e}, 360 bytes each)" in msg, msg
+    if hi is not None:
+        assert f"integers in [1, {hi}]" in msg
+        s = EulerianBedSetup(**{**kw, "cells_per_d": hi})
+        assert s.cells_per_d == hi
+
+
 EULERIAN_CONFIG = """[layer]
 kind = "granular_bed_eulerian"
 dimension = 2

@@ -298,3 +298,44 @@ def test_a_box_of_exactly_the_least_cells_and_the_stated_least_height_are_accept
     err = refused(tmp_path, capsys, f"[layer]\n{base}layer_height = 0.0104\n")
     assert "layer.layer_height" in err and "at least 0.0105 m" in err, err
     loads(tmp_path, f"[layer]\n{base}layer_height = 0.0105\n")
+
+
+# -- the bed kinds: stated ranges that hold (a fuzzing review, 2026-12-05) -------------------------
+
+@pytest.mark.parametrize("text, field", [
+    ('kind = "granular_bed"\nn_spheres = 1\nside = 100', "side"),
+    ('kind = "granular_bed"\nside = 100', "side"),
+    ('kind = "granular_bed_eulerian"\ndimension = 2\nn_spheres = 10000000\nside = 100', "side"),
+])
+def test_a_bed_too_wide_for_any_number_of_spheres_names_the_side(text, field, tmp_path, capsys):
+    """n_spheres was given the empty range [485868211, 1e7]: no number of spheres makes a bed a
+    diameter deep in a box of 100 m; the side is named, and the end of its range is accepted."""
+    err = refused(tmp_path, capsys, f"[layer]\n{text}\n")
+    assert err.startswith(f"bsrflow run: error: layer.{field}: side = 100 m is outside the valid range at these "
+                          "settings, (0, "), err
+    hi = float(re.search(r"\(0, ([0-9.e+-]+)\] m", err).group(1))
+    assert loads(tmp_path, f"[layer]\n{text.replace('side = 100', f'side = {hi!r}')}\ncycles = 1\n")
+
+
+@pytest.mark.parametrize("cells_per_d", [3, 4])
+def test_the_eulerian_lid_bound_is_stated_first_and_accepted(cells_per_d, tmp_path, capsys):
+    """output_height = 1e-300 was given the base's (0.04871, 100] m, and 0.0488 then refused with
+    the grid's [0.05375, 100] m: the grid's bound is stated, rounded up, and accepted."""
+    head = f'[layer]\nkind = "granular_bed_eulerian"\ndimension = 1\ncycles = 1\ncells_per_d = {cells_per_d}\n'
+    bounds = set()
+    for h in ("1e-300", "0.0488"):
+        err = refused(tmp_path, capsys, f"{head}output_height = {h}\n")
+        lo, hi = stated_range(err)
+        bounds.add(lo)
+        assert hi == 100.0 and loads(tmp_path, f"{head}output_height = {lo!r}\n")
+    assert len(bounds) == 1
+
+
+def test_the_stated_save_every_bound_is_accepted(tmp_path, capsys):
+    """save_every = 5e-8 s, the stated lower end of [5e-08, inf) s, was refused (0.05 / 5e-8 is
+    one ulp above 1e6 intervals), and the field's own upper bound (1 s) was not stated."""
+    head = '[layer]\nkind = "granular_bed"\ncycles = 1\n'
+    err = refused(tmp_path, capsys, f"{head}save_every = 1e-300\n")
+    assert "valid range [5e-08, 1] s (at most 1000000 snapshots)" in err, err
+    from bsrflow.numerics.solver import save_schedule
+    assert save_schedule(0.0, 0.05, 5e-8).size == 1_000_001

@@ -207,24 +207,26 @@ def _require_number(name, value):
         raise ValueError(f"{name} = {value!r} must be a number, not {type(value).__name__}")
 
 
-def save_schedule(t_start, t_end, save_every=None, save_times=None) -> np.ndarray:
+def save_schedule(t_start, t_end, save_every=None, save_times=None, save_every_max=np.inf) -> np.ndarray:
     """Sorted output times [s] in [t_start, t_end]: ``save_times`` if given, else every
     ``save_every`` from t_start plus t_end, else just the two ends.  At most
-    :data:`MAX_SNAPSHOTS` times (ValueError naming ``save_every`` and its valid range, or
-    ``save_times``)."""
+    :data:`MAX_SNAPSHOTS` intervals (ValueError naming ``save_every`` and its valid range, up to
+    ``save_every_max`` [s], the field's own bound where it has one; or ``save_times``)."""
     if save_times is None:
         if save_every is None:
             save_times = np.array([t_start, t_end])
         else:
             _require_number("save_every", save_every)
             span = t_end - t_start
+            least = span / MAX_SNAPSHOTS * (1.0 + 1e-9)          # (the printed bound is accepted)
+            rng = f"[{least:.4g}, {'inf)' if save_every_max == np.inf else f'{save_every_max:g}]'} s"
             if not (np.isfinite(save_every) and save_every > 0):
-                raise ValueError(f"save_every = {save_every!r} is outside the valid range "
-                                 f"[{span / MAX_SNAPSHOTS:.3g}, inf) s (at most {MAX_SNAPSHOTS} snapshots)")
-            if span / save_every > MAX_SNAPSHOTS:
+                raise ValueError(f"save_every = {save_every!r} is outside the valid range {rng} (at most "
+                                 f"{MAX_SNAPSHOTS} snapshots)")
+            if span / save_every > MAX_SNAPSHOTS * (1.0 + 1e-12):
                 raise ValueError(f"save_every = {save_every!r} s gives {span / save_every:.3g} snapshots from "
-                                 f"t = {t_start:g} to {t_end:g} s; valid range [{span / MAX_SNAPSHOTS:.3g}, inf) s "
-                                 f"(at most {MAX_SNAPSHOTS} snapshots)")
+                                 f"t = {t_start:g} to {t_end:g} s; valid range {rng} (at most {MAX_SNAPSHOTS} "
+                                 "snapshots)")
             n = int(np.floor((t_end - t_start) / save_every + 1e-9))
             save_times = t_start + save_every * np.arange(n + 1)
             if save_times[-1] < t_end - 1e-12 * max(1.0, abs(t_end)):

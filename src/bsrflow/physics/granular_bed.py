@@ -267,9 +267,16 @@ class BedSetup:
         than :data:`MAX_STEPS` time steps."""
         n_min = math.ceil(self.n_spheres * self.diameter / self.rest_height - 1e-9)
         if self.rest_height < self.diameter:
+            deep = f"the bed would be {self.rest_height / self.diameter:.3g} d deep (at least 1 d: a thinner bed is not a continuum)"
+            if n_min > 10_000_000:       # no number of spheres fills this box: the box is too wide
+                side_max = self.side * math.sqrt(self.rest_height / self.diameter)
+                q = 10.0 ** (math.floor(math.log10(side_max)) - 3)             # printed rounded down: accepted
+                raise ValueError(f"side = {self.side!r} m is outside the valid range at these settings, (0, "
+                                 f"{math.floor(side_max / q * (1 - 1e-9)) * q:.4g}] m (with n_spheres = {self.n_spheres!r}; even 1e7 "
+                                 f"spheres, the most, need a side of at most {math.sqrt(1e7 / n_min) * self.side:.3g} "
+                                 f"m): {deep}")
             raise ValueError(f"n_spheres = {self.n_spheres!r} is outside the valid range at these settings, "
-                             f"[{n_min}, 1e7]: the bed would be {self.rest_height / self.diameter:.3g} d deep (at "
-                             "least 1 d: a thinner bed is not a continuum)")
+                             f"[{n_min}, 1e7]: {deep}")
         overlap = self.mass_per_area * self.gravity * self.area / self.layer_stiffness      # δ at the bottom [m]
         if overlap > MAX_STATIC_OVERLAP * self.diameter:
             k_min = self.stiffness * overlap / (MAX_STATIC_OVERLAP * self.diameter)
@@ -407,6 +414,10 @@ MAX_CELLS_PER_D = 64
 MAX_LATERAL_CELLS = 256
 MAX_CELL_STEPS = 1e12
 """The most cell-steps an Eulerian bed run may need (days at the measured 0.5-2 µs per cell-stage)."""
+MAX_EULERIAN_CELLS = 20_000_000
+"""The most cells of an Eulerian bed's grid: its fields and work arrays take 45 floats, 360 bytes,
+per cell (about 7 GB at this bound; a 256 × 256 × 12 800 grid asked for 37.5 GB and ended in a
+traceback, a fuzzing review)."""
 MAX_PERTURBATION = 0.05
 """The largest lateral mode of the columns' heights at the start (:class:`bsrflow.numerics.
 bed_eulerian.EulerianBed`: each column 1 + ε cos(...) times as tall and heavy as the static bed):
@@ -463,14 +474,26 @@ class EulerianBedSetup(BedSetup):
             object.__setattr__(self, "lateral_cells", 1 if self.dimension == 1 else 4)
         check_eulerian_grid(self.dimension, self.cells_per_d, self.lateral_cells, self.perturbation, "dimension")
         super().__post_init__()
+
+    def _check_bed(self):
+        """The base's checks, the grid's lid first (its bound is above the base's ``output_height``
+        bound, which it would otherwise state: an ``output_height`` in that range was then refused
+        with this one, a fuzzing review)."""
+        if self.rest_height >= self.diameter:
+            self._check_lid()
+        super()._check_bed()
+
+    def _check_lid(self):
+        """Refuse a grid whose lid leaves the bed at rest less than a diameter of room."""
         dz = self.diameter / self.cells_per_d
         top = eulerian_vertical_cells(self, self.cells_per_d) * dz
         tallest = (1.0 + self.perturbation) * self.rest_height       # the tallest column at the start
         need = tallest + self.diameter                                 # a diameter of room below the lid
         if top < need - 1e-12 * need:
             lowest = math.ceil(need / dz - 1e-9) * dz
+            q = 10.0 ** (math.floor(math.log10(lowest)) - 3)                   # printed rounded up: accepted
             raise ValueError(f"output_height = {self.output_height!r} is outside the valid range at these settings, "
-                             f"[{lowest:.4g}, 100] m: the grid of whole cells below it would end at {top:.4g} m, and "
+                             f"[{math.ceil(lowest / q - 1e-6) * q:.4g}, 100] m: the grid of whole cells below it would end at {top:.4g} m, and "
                              f"the bed at rest ({tallest:.4g} m high) needs a diameter of room below the grid's lid "
                              "(a bed reaching the lid stops the run)")
 
@@ -490,7 +513,18 @@ class EulerianBedSetup(BedSetup):
 
         def fits(n):
             cells, steps = cost(n)
-            return cells * steps <= MAX_CELL_STEPS and steps <= MAX_STEPS
+            return cells * steps <= MAX_CELL_STEPS and steps <= MAX_STEPS and cells <= MAX_EULERIAN_CELLS
+        cells = cost(self.cells_per_d)[0]
+        if cells > MAX_EULERIAN_CELLS:
+            n_max = next((n for n in range(self.cells_per_d - 1, 0, -1) if cost(n)[0] <= MAX_EULERIAN_CELLS), None)
+            if n_max is None:
+                raise ValueError(f"lateral_cells = {self.lateral_cells!r} is outside the valid range at these settings: "
+                                 f"the grid would have {cells} cells even at 1 cell per d (at most "
+                                 f"{MAX_EULERIAN_CELLS:.0e}, 360 bytes each): fewer cells across or a lower "
+                                 "output_height")
+            raise ValueError(f"cells_per_d = {self.cells_per_d!r} is outside the valid range at these settings, "
+                             f"integers in [1, {n_max}]: the grid would have {cells} cells (at most "
+                             f"{MAX_EULERIAN_CELLS:.0e}, 360 bytes each)")
         if not fits(self.cells_per_d):
             cells, steps = cost(self.cells_per_d)
             n_max = next((n for n in range(self.cells_per_d - 1, 0, -1) if fits(n)), None)
