@@ -14,7 +14,6 @@ Needs a git checkout.  One core.  Machine-dependent.
 
 from __future__ import annotations
 
-import argparse
 import os
 import subprocess
 import sys
@@ -25,7 +24,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
-from _args import merge_json, output_json, positive_int  # noqa: E402
+from _args import Parser, int_in, merge_json, merge_target, positive_int  # noqa: E402
 from _git_ref import load_module_at  # noqa: E402
 
 from bsrflow.numerics import bed_lagrangian  # noqa: E402
@@ -60,14 +59,13 @@ def _called_as_now(advance):
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = Parser(description=__doc__.splitlines()[0])
     ap.add_argument("--ref", required=True, help="the git commit to compare with (e.g. 6a61db0)")
     ap.add_argument("--repeats", type=positive_int, default=5)
-    ap.add_argument("--cells", type=positive_int, default=None, help="cells (default: the bed's default, 200)")
-    ap.add_argument("--json", type=output_json, default=None, help="merge the result into this JSON file")
+    ap.add_argument("--cells", type=int_in(4), default=None,
+                    help="cells, in [4, inf) (default: the bed's default, 200)")
+    ap.add_argument("--json", type=merge_target, default=None, help="merge the result into this JSON file")
     args = ap.parse_args(argv)
-    if args.cells is not None and args.cells < 4:
-        ap.error(f"--cells {args.cells} is outside the valid range [4, inf)")
     setup = BedSetup(gamma=3.0, cycles=8)
     if args.cells is not None:
         setup = setup.with_(n_cells=args.cells)

@@ -15,7 +15,6 @@ Needs a git checkout.  One core.
 
 from __future__ import annotations
 
-import argparse
 import inspect
 import os
 import subprocess
@@ -29,7 +28,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import bench_step  # noqa: E402
-from _args import positive_int  # noqa: E402
+from _args import Parser, positive_int  # noqa: E402
 from _git_ref import load_module_at  # noqa: E402
 
 from bsrflow.numerics.solver import Scheme  # noqa: E402
@@ -44,7 +43,7 @@ def _load_ref(ref, tmp):
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = Parser(description=__doc__.splitlines()[0])
     ap.add_argument("--ref", required=True, help="the earlier commit (any git revision)")
     ap.add_argument("--ppd", type=positive_int, default=40, help="grid points per diameter (default 40)")
     ap.add_argument("--scheme", default="seed", help="scheme preset (default seed)")

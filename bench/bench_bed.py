@@ -15,7 +15,6 @@ Machine-dependent: wall times of this machine, serial, whatever else it is doing
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import shutil
@@ -27,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from _args import merge_json, output_json
+from _args import Parser, merge_json, merge_target, repo_path
 from bsrflow.numerics.bed_lagrangian import run_bed
 from bsrflow.physics.granular_bed import BedSetup
 
@@ -35,8 +34,9 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", type=output_json, default="bench/results.json")
+    ap = Parser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--json", type=merge_target, default=repo_path("bench/results.json"),
+                    help="JSON file to merge the results into (default bench/results.json)")
     ap.add_argument("--no-liggghts", action="store_true", help="time the continuum only")
     args = ap.parse_args(argv)
     folder = os.path.dirname(os.path.abspath(args.json))

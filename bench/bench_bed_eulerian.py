@@ -23,13 +23,12 @@ dependent: wall times of this machine, whatever else it is doing.
 
 from __future__ import annotations
 
-import argparse
 import time
 
 import numba
 import numpy as np
 
-from _args import merge_json, output_json, positive_float, positive_int
+from _args import Parser, int_in, merge_json, merge_target, positive_float, positive_int, repo_path
 from bsrflow.numerics.bed_eulerian import EulerianBed
 from bsrflow.numerics.bed_lagrangian import GranularBedColumn
 from bsrflow.physics.granular_bed import BedSetup
@@ -103,23 +102,20 @@ def _time_lagrangian(setup, span):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", type=output_json, default="bench/results.json")
-    ap.add_argument("--cells-per-d", type=positive_int, default=2, help="vertical cells per diameter (default 2)")
-    ap.add_argument("--lateral", type=positive_int, default=4, help="3-D: cells across the box (default 4, >= 2)")
+    ap = Parser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--json", type=merge_target, default=repo_path("bench/results.json"),
+                    help="JSON file to merge the results into (default bench/results.json)")
+    ap.add_argument("--cells-per-d", type=int_in(1, 64), default=2,
+                    help="vertical cells per diameter, in [1, 64] (default 2)")
+    ap.add_argument("--lateral", type=int_in(2, 256), default=4,
+                    help="3-D: cells across the box, in [2, 256] (default 4)")
     ap.add_argument("--time", type=positive_float, default=0.02, help="simulated seconds timed (default 0.02)")
-    ap.add_argument("--threads-lateral", type=positive_int, default=32,
-                    help="the thread test's cells across the box (default 32)")
+    ap.add_argument("--threads-lateral", type=int_in(2, 256), default=32,
+                    help="the thread test's cells across the box, in [2, 256] (default 32)")
     ap.add_argument("--threads-time", type=positive_float, default=1e-4,
                     help="simulated seconds per timed span of the thread test (default 1e-4)")
     ap.add_argument("--threads-repeats", type=positive_int, default=5, help="timed spans (default 5)")
     args = ap.parse_args(argv)
-    if not 2 <= args.threads_lateral <= 256:
-        ap.error(f"--threads-lateral {args.threads_lateral} is outside the valid range [2, 256]")
-    if args.lateral < 2:
-        ap.error(f"--lateral {args.lateral} is outside the valid range [2, 256]")
-    if args.cells_per_d > 64:
-        ap.error(f"--cells-per-d {args.cells_per_d} is outside the valid range [1, 64]")
     setup = BedSetup(gamma=3.0)
     n_threads = numba.get_num_threads()
     numba.set_num_threads(1)                 # the per-cell-stage comparison: one thread throughout

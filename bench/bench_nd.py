@@ -18,7 +18,6 @@ The machine may be shared: the load average before and after is recorded in the 
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import platform
@@ -33,7 +32,7 @@ from bsrflow.numerics.grid_nd import GridND
 from bsrflow.numerics.solver import Scheme
 from bsrflow.numerics.solver_nd import BSRModelND, SimulationND, to_internal, walton_braun_nd
 from bsrflow.physics.motion import HalfSineTaps
-from _args import output_json, positive_int  # noqa: E402
+from _args import Parser, int_in, output_json  # noqa: E402
 
 DX = 0.002
 W = 2
@@ -61,17 +60,16 @@ def time_steps(sim, ui, ri, steps):
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--sizes", type=positive_int, nargs="+", default=[32, 64, 128], help="grid sizes n (n^3 cells)")
-    ap.add_argument("--threads", type=positive_int, nargs="+", default=[1, 2], help="numba thread counts")
+    ap = Parser(description=__doc__.split("\n")[0])
+    ap.add_argument("--sizes", type=int_in(max(3, W + 1)), nargs="+", default=[32, 64, 128],
+                    help=f"grid sizes n (n^3 cells), in [{max(3, W + 1)}, inf)")
+    ap.add_argument("--threads", type=int_in(1, numba.config.NUMBA_NUM_THREADS), nargs="+", default=[1, 2],
+                    help=f"numba thread counts, in [1, {numba.config.NUMBA_NUM_THREADS}] (NUMBA_NUM_THREADS)")
     ap.add_argument("--json", type=output_json, default=os.path.join(os.path.dirname(__file__), "results_nd.json"),
                     help="output JSON path (default bench/results_nd.json)")
     args = ap.parse_args(argv)
-    for n in args.sizes:
-        if n < 3 or n <= W:
-            ap.error(f"argument --sizes: n = {n} is outside the valid range: integers > {W}")
     maxt = numba.config.NUMBA_NUM_THREADS
-    for p in args.threads:
+    for p in args.threads:                  # the default 2 too, on a machine with one thread
         if not (1 <= p <= maxt):
             ap.error(f"argument --threads: {p} is outside the valid range [1, {maxt}] (NUMBA_NUM_THREADS)")
 

@@ -15,14 +15,12 @@ figures.
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
 import platform
 import statistics
 import time
 
-from _args import positive_int, output_json
+from _args import Parser, merge_json, merge_target, positive_int, repo_path
 from bsrflow.analysis.compare import run_dem_column
 from bsrflow.analysis.compare_packing import PACKING_MODELS, model_label
 from bsrflow.physics.column import ColumnSetup, run_bsr_column, suggest_stiffness_factor
@@ -39,8 +37,8 @@ def _median_wall(fn, repeats):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", type=output_json, default="bench/results.json",
+    ap = Parser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--json", type=merge_target, default=repo_path("bench/results.json"),
                     help="JSON to add the results to (its folder must exist)")
     ap.add_argument("--repeats", type=positive_int, default=3, help="timed runs per setting (median)")
     ap.add_argument("--ppd", type=positive_int, default=10, help="points or cells per diameter")
@@ -64,14 +62,7 @@ def main(argv=None):
              "points_per_diameter": args.ppd, "repeats": args.repeats, "dem_wall_s": dem_wall,
              "dem_walls_s": dem_walls, "runs": rows,
              "machine": f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}"}
-    data = {}
-    if os.path.exists(args.json):
-        with open(args.json) as fh:
-            data = json.load(fh)
-    data["packing_column_2s"] = entry
-    with open(args.json, "w") as fh:
-        json.dump(data, fh, indent=2)
-    print(f"wrote {args.json} (key packing_column_2s)")
+    merge_json(args.json, "packing_column_2s", entry)
 
 
 if __name__ == "__main__":

@@ -20,14 +20,13 @@ Machine-dependent figures; writes the key ``packing_nd_step`` into the JSON file
 
 from __future__ import annotations
 
-import argparse
 import os
 import time
 
 import numba
 import numpy as np
 
-from _args import merge_json, output_json
+from _args import Parser, int_in, merge_json, merge_target, repo_path
 from bsrflow.numerics.grid_nd import GridND
 from bsrflow.numerics.packing_nd import EulerianPackingND, PackingLawND
 from bsrflow.physics.motion import HalfSineTaps
@@ -81,20 +80,15 @@ def time_pairs(n, steps, repeats, thread_counts):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", type=output_json, default="bench/results.json")
-    ap.add_argument("--sizes", type=int, nargs="+", default=[64, 128])
-    ap.add_argument("--steps", type=int, default=3)
-    ap.add_argument("--repeats", type=int, default=5)
+    ap = Parser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--json", type=merge_target, default=repo_path("bench/results.json"),
+                    help="JSON file to merge the results into (default bench/results.json)")
+    ap.add_argument("--sizes", type=int_in(32), nargs="+", default=[64, 128],
+                    help="grid sizes n, in [32, inf) (the bed fills the lower half; a smaller box lets the "
+                         "expanding top reach the domain's top within the timed steps)")
+    ap.add_argument("--steps", type=int_in(1), default=3)
+    ap.add_argument("--repeats", type=int_in(1), default=5)
     args = ap.parse_args(argv)
-    if args.repeats < 1:
-        ap.error(f"--repeats {args.repeats} outside the valid range [1, inf)")
-    for n in args.sizes:
-        if n < 32:
-            ap.error(f"--sizes {n} outside the valid range [32, inf) (the bed fills the lower half; a smaller "
-                     "box lets the expanding top reach the domain's top within the timed steps)")
-    if args.steps < 1:
-        ap.error(f"--steps {args.steps} outside the valid range [1, inf)")
     folder = os.path.dirname(os.path.abspath(args.json))
     if not os.path.isdir(folder):
         ap.error(f"--json {args.json}: folder {folder} does not exist")

@@ -39,7 +39,6 @@ their own ratios against the seed; they do not enter the preset's ratio.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import statistics
@@ -50,7 +49,7 @@ import numpy as np
 
 from bsrflow.numerics.solver import Scheme
 from bsrflow.physics.column import ColumnSetup, column_run_from_result, initial_density
-from _args import output_json  # noqa: E402
+from _args import Parser, output_json, repo_path  # noqa: E402
 
 T = 0.3
 PPDS = (5, 10, 20, 40)
@@ -120,8 +119,8 @@ def cost_at(err, errs, costs):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", type=output_json, default="bench/results_schemes.json")
+    ap = Parser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--json", type=output_json, default=repo_path("bench/results_schemes.json"))
     ap.add_argument("--quick", action="store_true", help="one timing per run, no chaos floor, grids 5-20")
     args = ap.parse_args(argv)
     numba.set_num_threads(1)

@@ -22,7 +22,6 @@ the skip's.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import platform
@@ -38,7 +37,7 @@ from bsrflow.numerics.reference import ReferenceScheme
 from bsrflow.numerics.solver import Scheme
 from bsrflow.physics.interaction import fast_integral_for
 from bsrflow.physics.column import ColumnSetup, initial_density, run_bsr_column
-from _args import output_json, positive_int  # noqa: E402
+from _args import Parser, output_json, positive_int, repo_path  # noqa: E402
 
 DEFAULTS = dict(m0=406.0, kernel_dissipation=0.9, a_over_d=0.75, frequency=10.0)
 STATE_TIMES = (0.3, 0.45, 0.6, 0.9, 1.3)
@@ -266,8 +265,8 @@ def _cpu_model() -> str:
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", type=output_json, default="bench/results.json")
+    ap = Parser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--json", type=output_json, default=repo_path("bench/results.json"))
     ap.add_argument("--repeats", type=positive_int, default=5, help="timed repeats per case (median)")
     ap.add_argument("--quick", action="store_true", help="fewer steps and repeats, 20/200 spheres only")
     args = ap.parse_args(argv)

@@ -21,14 +21,13 @@ nothing; a few seconds.
 
 from __future__ import annotations
 
-import argparse
 import math
 from pathlib import Path
 
 import numba
 import numpy as np
 
-from _args import positive_float, positive_int
+from _args import Parser, positive_float, positive_int
 from bsrflow.analysis.compare_bed import flight_per_cycle, flights_from_force
 from bsrflow.numerics import packing_kernels as pk
 from bsrflow.physics.packing import packing_force
@@ -76,13 +75,12 @@ def run_bed(gamma, restitution, ppd, cycles=11, n=2000, side=13.0, d=0.005, rho_
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = Parser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--gammas", type=positive_float, nargs="+", default=[1.5, 3.0, 4.0])
-    ap.add_argument("--restitution", type=float, default=0.9, help="0.9 (main LIGGGHTS runs) or 0.5")
+    ap.add_argument("--restitution", type=float, choices=(0.9, 0.5), default=0.9,
+                    help="0.9 (main LIGGGHTS runs) or 0.5 (the LIGGGHTS runs' values)")
     ap.add_argument("--ppd", type=positive_int, default=10, help="material points per layer")
     args = ap.parse_args(argv)
-    if args.restitution not in (0.9, 0.5):
-        ap.error(f"--restitution {args.restitution} outside the valid values: 0.9, 0.5 (the LIGGGHTS runs)")
     tag = "" if args.restitution == 0.9 else "_e0.5"
     table = np.genfromtxt(REF / f"flight_vs_gamma{tag}.csv", delimiter=",", names=True, skip_header=1)
     d = 0.005

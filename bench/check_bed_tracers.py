@@ -15,13 +15,12 @@ measures are first order there.
 
 from __future__ import annotations
 
-import argparse
 import json
 import time
 
 import numpy as np
 
-from _args import list_of, positive_int, output_json
+from _args import Parser, list_of, output_json, positive_int
 from bsrflow.numerics.packing_nd import run_packing_nd
 from bsrflow.numerics.solver import save_schedule
 from bsrflow.physics.packing_bed import PackingBed
@@ -58,7 +57,7 @@ def material_line_errors(cells_per_diameter: int) -> dict:
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = Parser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--cells-per-diameter", type=list_of(positive_int), default=[2, 4, 8])
     ap.add_argument("--json", type=output_json, default=None, help="write the numbers to this JSON file")
     args = ap.parse_args(argv)

@@ -13,21 +13,20 @@ same snapshots (the checkpoints add no event: exit code 1 otherwise).
 
 from __future__ import annotations
 
-import argparse
 import os
 import statistics
 import time
 
 import numpy as np
 
+from _args import Parser, int_in
+
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--repeats", type=int, default=7, help="runs per setting (default 7)")
+    ap = Parser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--repeats", type=int_in(1), default=7, help="runs per setting (default 7)")
     ap.add_argument("--dir", default=os.path.join("out", "checkpoint_cost"), help="scratch directory")
     args = ap.parse_args(argv)
-    if args.repeats < 1:
-        ap.error(f"--repeats {args.repeats} is outside the valid range: integers >= 1")
     from bsrflow.io.checkpoint import Checkpoint, write_checkpoint
     from bsrflow.io.config import Config
     from bsrflow.io.netcdf import read_snapshots

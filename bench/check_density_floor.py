@@ -12,7 +12,6 @@ density difference in material cells [kg/m], and the largest density difference 
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 
@@ -22,11 +21,11 @@ from bsrflow.numerics.solver import Scheme
 from bsrflow.physics.column import ColumnSetup, initial_density
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _args import positive_float, positive_int  # noqa: E402
+from _args import Parser, positive_float, positive_int  # noqa: E402
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = Parser(description=__doc__.splitlines()[0])
     ap.add_argument("--ppd", type=positive_int, default=10, help="grid points per diameter (default 10)")
     ap.add_argument("--scheme", default="seed", help="scheme preset (default seed)")
     ap.add_argument("--t-end", type=positive_float, default=2.0, help="simulated time [s] (default 2.0)")

@@ -25,7 +25,6 @@ Writes nothing; takes about a minute.
 
 from __future__ import annotations
 
-import argparse
 import math
 
 import numba
@@ -35,6 +34,8 @@ from bsrflow.analysis.compare_packing import PACKING_CASES, case_setup
 from bsrflow.physics.column import run_bsr_column
 from bsrflow.physics.dem import DEMColumn, run_dem
 from bsrflow.physics.packing import history_update, packing_force
+
+from _args import Parser, float_in, int_in
 
 
 @numba.njit(cache=True)
@@ -134,17 +135,11 @@ def rise(t, top, tap_start):
 
 def main(argv=None):
     names = [c["name"] for c in PACKING_CASES]
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = Parser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--case", default="d22mm_a1.5", choices=names, metavar="NAME", help="one of: " + ", ".join(names))
-    ap.add_argument("--ppd", type=int, nargs="+", default=[5, 10, 20, 40])
-    ap.add_argument("--widths", type=float, nargs="+", default=[0.0, 0.1, 0.3])
+    ap.add_argument("--ppd", type=int_in(2), nargs="+", default=[5, 10, 20, 40])
+    ap.add_argument("--widths", type=float_in(0.0, 1.0, hi_open=True), nargs="+", default=[0.0, 0.1, 0.3])
     args = ap.parse_args(argv)
-    for p in args.ppd:
-        if p < 2:
-            ap.error(f"--ppd {p} outside the valid range [2, inf)")
-    for w in args.widths:
-        if not 0.0 <= w < 1.0:
-            ap.error(f"--widths {w} outside the valid range [0, 1)")
     s = case_setup(next(c for c in PACKING_CASES if c["name"] == args.case), formulation="lagrangian", range_over_d=0.0,
                    save_every=0.0005)
     d = s.diameter

@@ -14,13 +14,12 @@ first landing comes in the second cycle, near 1.6 cycles).  Each line also gives
 
 from __future__ import annotations
 
-import argparse
 import json
 import time
 
 import numpy as np
 
-from _args import list_of, output_json, positive_int
+from _args import Parser, int_in, list_of, output_json
 from bsrflow.numerics.bed_eulerian import RHO, EulerianBed
 from bsrflow.physics.granular_bed import BedSetup
 
@@ -60,16 +59,12 @@ def material_line_drift(cells_per_d: int, cycles: int) -> dict:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--cells-per-d", type=list_of(positive_int), default=[2, 4, 8],
+    ap = Parser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--cells-per-d", type=list_of(int_in(1, 64)), default=[2, 4, 8],
                     help="resolutions, cells per diameter (default 2,4,8; at most 64)")
-    ap.add_argument("--cycles", type=positive_int, default=3, help="cycles to run (default 3; at most 50)")
+    ap.add_argument("--cycles", type=int_in(1, 50), default=3, help="cycles to run (default 3; at most 50)")
     ap.add_argument("--json", type=output_json, help="also write the results here")
     args = ap.parse_args(argv)
-    if any(c > 64 for c in args.cells_per_d):
-        ap.error(f"--cells-per-d {max(args.cells_per_d)} is outside the valid range [1, 64]")
-    if args.cycles > 50:
-        ap.error(f"--cycles {args.cycles} is outside the valid range [1, 50]")
     print("cells/d | largest change of the mass fraction below each tracer (started at 1/4, 1/2, 3/4 of the "
           "bed's height), after cycle 1 / 2 / ... | wall [s]")
     out = []

@@ -18,14 +18,13 @@ limiter, which keeps the cell's value at the mirror).  The flight measure cuts t
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import time
 
 import numpy as np
 
-from _args import list_of, output_json, positive_int
+from _args import Parser, int_in, list_of, output_json
 from bsrflow.numerics.bed_eulerian import ENER, MZ, RHO, EulerianBed, kinetic_sound_speed
 from bsrflow.numerics.bed_lagrangian import GranularBedColumn
 from bsrflow.physics.granular_bed import BedSetup, kinetic_pressure
@@ -88,17 +87,13 @@ def approach(cells_per_d: int, cycle: int) -> dict:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--cells-per-d", type=list_of(positive_int), default=[4],
+    ap = Parser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--cells-per-d", type=list_of(int_in(1, 16)), default=[4],
                     help="Eulerian resolutions, cells per diameter (default 4; at most 16)")
-    ap.add_argument("--cycle", type=positive_int, default=6, help="the cycle whose landing is shown (default 6; "
+    ap.add_argument("--cycle", type=int_in(1, 11), default=6, help="the cycle whose landing is shown (default 6; "
                     "at most 11)")
     ap.add_argument("--json", type=output_json, help="also write the results here")
     args = ap.parse_args(argv)
-    if any(c > 16 for c in args.cells_per_d):
-        ap.error(f"--cells-per-d {max(args.cells_per_d)} is outside the valid range [1, 16]")
-    if args.cycle > 11:
-        ap.error(f"--cycle {args.cycle} is outside the valid range [1, 11]")
     out = []
     for c in args.cells_per_d:
         r = approach(c, args.cycle)

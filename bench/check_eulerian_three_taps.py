@@ -9,13 +9,12 @@ built-in DEM's.  Prints one line per grid (runs one after the other, one core ea
 
 from __future__ import annotations
 
-import argparse
 
 import numpy as np
 
 from bsrflow.physics.column import ColumnSetup, run_packing_column
 from bsrflow.analysis.compare import run_dem_column
-from _args import list_of, positive_int  # noqa: E402
+from _args import Parser, list_of, positive_int  # noqa: E402
 
 
 def tap_maxima(t, top, setup) -> list[float]:
@@ -29,7 +28,7 @@ def tap_maxima(t, top, setup) -> list[float]:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = Parser(description=__doc__.splitlines()[0])
     ap.add_argument("--ppd", type=list_of(positive_int), default=[5, 10, 20], help="cells per diameter")
     ap.add_argument("--formulation", choices=("eulerian", "lagrangian"), default="eulerian")
     args = ap.parse_args(argv)

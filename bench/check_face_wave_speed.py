@@ -19,13 +19,12 @@ largest φ, θ and |u_z| of the cell and its neighbours).  Exit status 1 if that
 
 from __future__ import annotations
 
-import argparse
 import inspect
 import sys
 
 import numpy as np
 
-from _args import positive_float, positive_int
+from _args import Parser, float_in, int_in
 from bsrflow.numerics import bed_eulerian_reference as R
 from bsrflow.numerics.bed_eulerian import EulerianBed
 from bsrflow.physics.granular_bed import BedSetup
@@ -43,18 +42,13 @@ def _wave_bounds_function():
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--gamma", type=positive_float, default=3.0, help="Γ = aω²/g (default 3)")
-    ap.add_argument("--cycles", type=positive_int, default=8, help="cycles of vibration (default 8)")
-    ap.add_argument("--cells-per-d", type=positive_int, default=4, help="vertical cells per d (default 4)")
+    ap = Parser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--gamma", type=float_in(0.0, 8.0, lo_open=True), default=3.0,
+                    help="Γ = aω²/g, in (0, 8] (default 3)")
+    ap.add_argument("--cycles", type=int_in(1, 50), default=8, help="cycles of vibration, in [1, 50] (default 8)")
+    ap.add_argument("--cells-per-d", type=int_in(1, 16), default=4, help="vertical cells per d, in [1, 16] (default 4)")
     ap.add_argument("--dim", type=int, choices=(1, 3), default=1, help="1 (column) or 3 (4 x 4 columns, 5 %% mode)")
     args = ap.parse_args(argv)
-    if args.cells_per_d > 16:
-        ap.error(f"--cells-per-d {args.cells_per_d} is outside the valid range [1, 16]")
-    if args.cycles > 50:
-        ap.error(f"--cycles {args.cycles} is outside the valid range [1, 50]")
-    if not args.gamma <= 8.0:
-        ap.error(f"--gamma {args.gamma} is outside the valid range (0, 8]")
     waves = _wave_bounds_function()
     s = BedSetup(gamma=args.gamma, cycles=args.cycles)
     bed = EulerianBed(s, args.dim, args.cells_per_d, 4 if args.dim == 3 else 1, 0.05 if args.dim == 3 else 0.0)

@@ -19,7 +19,6 @@ time; the rate there was not measured.
 
 from __future__ import annotations
 
-import argparse
 import os
 import random
 import signal
@@ -31,7 +30,7 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _args import positive_int  # noqa: E402
+from _args import Parser, positive_int  # noqa: E402
 
 WRITER = textwrap.dedent("""
     import sys
@@ -59,7 +58,7 @@ def main(argv=None) -> int:
 
     from bsrflow.io.netcdf import read_snapshots
 
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = Parser(description=__doc__.splitlines()[0])
     ap.add_argument("--kills", type=positive_int, default=160, help="number of writers to kill (default 160)")
     ap.add_argument("--dir", default="out/kill_rate", help="where the files go (default out/kill_rate)")
     ap.add_argument("--seed", type=int, default=11, help="seed of the kill moments (default 11)")

@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from _args import list_of, positive_float
+from _args import Parser, float_in, list_of, positive_float
 from bsrflow.analysis.compare import run_dem_column
 from bsrflow.analysis.compare_packing import PACKING_CASES, case_setup
 from bsrflow.physics.column import ColumnSetup, run_bsr_column
@@ -46,19 +46,18 @@ def _table(series, names, times, d, title, extra=lambda tt: ""):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = Parser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--case", default="d22mm_a1.0", help="a case of `bsrflow compare --kernel packing`")
     ap.add_argument("--runs", type=list_of(_run_spec), default=[("eulerian", 20), ("eulerian", 40), ("lagrangian", 40)],
                     help="formulation:ppd pairs, comma-separated, e.g. eulerian:20,lagrangian:40")
-    ap.add_argument("--stiffness-factor", type=positive_float, default=1.0, help="K x this factor (default 1)")
+    ap.add_argument("--stiffness-factor", type=float_in(0.0, 1.0, lo_open=True), default=1.0,
+                    help="K x this factor, in (0, 1] (default 1)")
     ap.add_argument("--times", type=list_of(positive_float), default=[0.9, 0.95, 1.0, 1.05, 1.1, 1.15, 1.2],
                     help="times [s] at which the state is printed, comma-separated")
     args = ap.parse_args(argv)
     known = {c["name"]: c for c in PACKING_CASES}
     if args.case not in known:
         ap.error(f"--case: {args.case!r} is not a case; valid: {', '.join(known)}")
-    if args.stiffness_factor > 1.0:
-        ap.error("--stiffness-factor: must be in (0, 1]")
     base = case_setup(known[args.case], ColumnSetup())
     d = base.diameter
     t_d, pos, _ = run_dem_column(base)

@@ -13,17 +13,16 @@ script was written for; 1: the package's nonlocal interaction).
 
 from __future__ import annotations
 
-import argparse
 
 import numpy as np
 
-from _args import positive_float, positive_int
+from _args import Parser, positive_float, positive_int
 from bsrflow.physics.column import ColumnSetup, run_bsr_column
 from bsrflow.physics.dem import DEMColumn, run_dem
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = Parser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--a-over-d", type=positive_float, default=1.5)
     ap.add_argument("--ppd", type=positive_int, default=20)
     ap.add_argument("--at", type=positive_float, default=0.46, help="time [s] after the tap's end (0.45 s)")
@@ -33,17 +32,17 @@ def main(argv=None):
     t_tap_end = s.tap_start + 0.5 / s.frequency
     if args.at <= t_tap_end:
         ap.error(f"--at must be after the tap's end, {t_tap_end:g} s")
+    try:
+        packing = s.with_(kernel_name="packing", formulation="lagrangian", points_per_diameter=args.ppd,
+                          range_over_d=args.range)
+    except ValueError as exc:
+        ap.error(str(exc))
     aw = s.amplitude * s.omega
     col = DEMColumn(n_spheres=s.n_spheres, diameter=s.diameter, density=s.density, stiffness=s.stiffness,
                     restitution=s.restitution, gravity=s.gravity)
     r = run_dem(col, s.motion(), s.t_end, sample_interval=s.save_every)
     k = int(np.argmin(np.abs(np.asarray(r.t) - args.at)))
     v_dem = (np.asarray(r.velocities)[k] + s.gravity * (r.t[k] - t_tap_end)) / aw
-    try:
-        packing = s.with_(kernel_name="packing", formulation="lagrangian", points_per_diameter=args.ppd,
-                          range_over_d=args.range)
-    except ValueError as exc:
-        ap.error(str(exc))
     run = run_bsr_column(packing)
     j = int(np.argmin(np.abs(run.t - args.at)))
     v_c = (np.gradient(run.tracers, run.t, axis=0)[j] + s.gravity * (run.t[j] - t_tap_end)) / aw

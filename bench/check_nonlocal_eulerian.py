@@ -35,7 +35,6 @@ trial is slow: SSP-RK3 at the acoustic time step, L history fields).
 
 from __future__ import annotations
 
-import argparse
 import math
 import time
 
@@ -50,6 +49,8 @@ from bsrflow.numerics.packing_kernels import (HIST, MOM, NG, RHO, active_top, cl
 from bsrflow.numerics.packing_nonlocal import nonlocal_time_step_bound
 from bsrflow.physics.column import ColumnSetup, column_run_from_result
 from bsrflow.physics.packing import history_update, packing_force, packing_wave_speed
+
+from _args import Parser, float_in, int_in
 
 
 # ------------------------------------------------------------------------------------------------
@@ -372,24 +373,16 @@ def top_slabs(disc, n, m, slabs=4):
 
 def main(argv=None):
     names = [c["name"] for c in PACKING_CASES]
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = Parser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--case", default="d22mm_a1.0", choices=names, metavar="NAME", help="one of: " + ", ".join(names))
-    ap.add_argument("--ppd", type=int, nargs="+", default=[5, 10, 20])
-    ap.add_argument("--cap", type=float, default=1.0)
-    ap.add_argument("--bulk", type=float, default=1.0,
+    ap.add_argument("--ppd", type=int_in(2), nargs="+", default=[5, 10, 20])
+    ap.add_argument("--cap", type=float_in(0.0, lo_open=True), default=1.0)
+    ap.add_argument("--bulk", type=float_in(0.0, 1.0), default=1.0,
                     help="dissipation in the packed bulk, 1 = HLLE (the trial), 0 = central flux (default 1)")
-    ap.add_argument("--restitution", type=float, default=None, help="override the case's e, in (0, 1]")
+    ap.add_argument("--restitution", type=float_in(0.0, 1.0, lo_open=True), default=None,
+                    help="override the case's e, in (0, 1]")
     ap.add_argument("--no-dem", action="store_true", help="skip the DEM and the runs after the probe")
     args = ap.parse_args(argv)
-    for p in args.ppd:
-        if p < 2:
-            ap.error(f"--ppd {p} outside the valid range [2, inf)")
-    if not (math.isfinite(args.cap) and args.cap > 0.0):
-        ap.error(f"--cap {args.cap} outside the valid range (0, inf)")
-    if not 0.0 <= args.bulk <= 1.0:
-        ap.error(f"--bulk {args.bulk} outside the valid range [0, 1]")
-    if args.restitution is not None and not 0.0 < args.restitution <= 1.0:
-        ap.error(f"--restitution {args.restitution} outside the valid range (0, 1]")
     case = next(c for c in PACKING_CASES if c["name"] == args.case)
     base = ColumnSetup(kernel_name="packing", formulation="lagrangian", range_over_d=1.0)
     s0 = case_setup(case, base, formulation="lagrangian", range_over_d=1.0)

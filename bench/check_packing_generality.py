@@ -26,7 +26,6 @@ K10x runs take longest: the step scales as 1/√K).
 
 from __future__ import annotations
 
-import argparse
 import json
 import time
 
@@ -35,7 +34,7 @@ import numpy as np
 from bsrflow.analysis.compare import run_dem_column
 from bsrflow.analysis.compare_packing import _metrics, _run_against_dem, case_setup
 from bsrflow.physics.column import ColumnSetup
-from _args import output_json  # noqa: E402
+from _args import Parser, float_in, output_json, repo_path  # noqa: E402
 
 VARIANTS = {
     "e0.5": {"restitution": 0.5},
@@ -59,15 +58,14 @@ def split_rms(t_dem, mc_dem, t_run, mc_run, t_tap, t_land, d):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", type=output_json, default="bench/results_packing_generality.json", help="output JSON path")
+    ap = Parser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--json", type=output_json, default=repo_path("bench/results_packing_generality.json"),
+                    help="output JSON path")
     ap.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=list(VARIANTS), metavar="NAME",
                     help="any of: " + ", ".join(VARIANTS))
-    ap.add_argument("--a-over-d", type=float, nargs="+", default=[0.75, 1.0], help="tap amplitudes a/d, in (0, 20]")
+    ap.add_argument("--a-over-d", type=float_in(0.0, 20.0, lo_open=True), nargs="+", default=[0.75, 1.0],
+                    help="tap amplitudes a/d, in (0, 20]")
     args = ap.parse_args(argv)
-    for a in args.a_over_d:
-        if not 0.0 < a <= 20.0:
-            ap.error(f"--a-over-d {a} outside the valid range (0, 20]")
     cases = [dict(name=f"d22mm_a{a}", diameter=0.022, a_over_d=a, n_taps=1) for a in args.a_over_d]
     out = {"models": [f"{f} R={r:g}d" for f, r in MODELS], "variants": {},
            "command": "python bench/check_packing_generality.py"}

@@ -13,16 +13,17 @@ minute and a half; writes nothing; exit 1 if a counted case is not OK.
 
 from __future__ import annotations
 
-import argparse
 import os
 import signal
 import subprocess
 import sys
 import time
 
+from _args import Parser
+
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = Parser(description=__doc__.splitlines()[0])
     ap.add_argument("--commands", nargs="+", default=["energy", "verify"])
     ap.add_argument("--delays", nargs="+", type=float, default=[0.3, 0.8, 1.5, 2.5, 4.0, 6.0])
     ap.add_argument("--handler-after", type=float, default=1.0, metavar="S",

@@ -17,12 +17,11 @@ docs/model.md says why).  Takes about 10 s per run at 10 points per diameter.
 
 from __future__ import annotations
 
-import argparse
 import json
 
 import numpy as np
 
-from _args import positive_int, output_json
+from _args import Parser, output_json, positive_int
 from bsrflow.analysis.compare import run_dem_column
 from bsrflow.analysis.compare_packing import PACKING_CASES, _metrics, case_setup
 from bsrflow.physics import packing
@@ -31,7 +30,7 @@ from bsrflow.physics.column import ColumnSetup, run_bsr_column
 
 def main(argv=None):
     names = [c["name"] for c in PACKING_CASES]
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = Parser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--case", default="d22mm_a1.0_three_taps", choices=names, metavar="NAME",
                     help="one of: " + ", ".join(names))
     ap.add_argument("--runs", type=positive_int, default=12)

@@ -11,7 +11,6 @@ stiffer column).  One core.  Exit code 1 when any run stops early.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import time
@@ -21,7 +20,7 @@ import numpy as np
 
 from bsrflow.numerics.solver import Scheme, SimulationError
 from bsrflow.physics.column import ColumnSetup, run_bsr_column
-from _args import list_of, output_json, positive_int  # noqa: E402
+from _args import Parser, list_of, output_json, positive_int, repo_path  # noqa: E402
 
 CASES = {"single_tap_a0.75": dict(a_over_d=0.75, n_taps=1),
          "single_tap_a1.0": dict(a_over_d=1.0, n_taps=1),
@@ -30,10 +29,10 @@ CONSTANTS = (dict(m0=406.0, kernel_dissipation=0.9), dict(m0=179.0, kernel_dissi
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = Parser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--scheme", default="accurate", choices=("seed", "accurate"))
     ap.add_argument("--ppd", type=list_of(positive_int), default=[10, 20, 40], help="points per diameter, comma-separated")
-    ap.add_argument("--json", type=output_json, default="out/check_taps.json")
+    ap.add_argument("--json", type=output_json, default=repo_path("out/check_taps.json"))
     args = ap.parse_args(argv)
     numba.set_num_threads(1)
     rows, failed = [], 0

@@ -15,7 +15,6 @@ last pair of a fourth-order stepper (256 → 512, error about 4e-12) is already 
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 
@@ -26,11 +25,11 @@ from bsrflow.numerics.solver import Scheme
 from bsrflow.numerics.steppers import STEPPERS
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _args import list_of, positive_int  # noqa: E402
+from _args import Parser, list_of, positive_int  # noqa: E402
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = Parser(description=__doc__.splitlines()[0])
     ap.add_argument("--scheme", default="accurate", help="scheme preset (default accurate)")
     ap.add_argument("--stepper", default=None, choices=sorted(STEPPERS),
                     help="Runge-Kutta stepper (default: the preset's)")

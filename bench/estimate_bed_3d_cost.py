@@ -17,7 +17,6 @@ prints the estimate beside the LIGGGHTS time of the same question from the same 
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import os
@@ -28,12 +27,14 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 from bsrflow.physics.granular_bed import BedSetup  # noqa: E402
 from bsrflow.physics.packing_bed import PackingBed  # noqa: E402
 
+from _args import Parser, repo_path  # noqa: E402
+
 CYCLES = 8          # 3 start-up + 5 compared
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--results", default="docs/results/make_bench_2026-12-03.json",
+    ap = Parser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--results", default=repo_path("docs/results/make_bench_2026-12-03.json"),
                     help="a make-bench JSON with packing_nd_step and bed_gamma3_five_cycles")
     args = ap.parse_args(argv)
     try:

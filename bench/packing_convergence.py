@@ -16,7 +16,6 @@ Wall times are of this machine (one core; they vary with its load).
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import platform
@@ -24,19 +23,19 @@ import time
 
 import numpy as np
 
-from _args import list_of, positive_int, output_json
+from _args import Parser, int_in, list_of, output_json, repo_path
 from bsrflow.analysis.compare import run_dem_column
 from bsrflow.analysis.compare_packing import PACKING_CASES, case_setup, model_label, parse_models
 from bsrflow.physics.column import ColumnSetup, run_bsr_column
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", type=output_json, default="bench/results_packing_convergence.json",
+    ap = Parser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--json", type=output_json, default=repo_path("bench/results_packing_convergence.json"),
                     help="output JSON (its folder must exist)")
     ap.add_argument("--cases", default="d22mm_a0.75,d22mm_a1.0",
                     help="comma-separated case names of `bsrflow compare --kernel packing`")
-    ap.add_argument("--ppd", type=list_of(positive_int), default=[5, 10, 20, 40],
+    ap.add_argument("--ppd", type=list_of(int_in(2)), default=[5, 10, 20, 40],
                     help="points or cells per diameter, comma-separated (each at least 2)")
     ap.add_argument("--models", default="lagrangian:1,eulerian:0,lagrangian:0",
                     help="formulation:R/d pairs, comma-separated (as `bsrflow compare --models`)")
@@ -58,8 +57,6 @@ def main(argv=None):
         ap.error(str(exc))
     if not models:
         ap.error("--models / --formulations: no model left to run")
-    if any(p < 2 for p in args.ppd):
-        ap.error("--ppd: each value must be at least 2")
     out = {"machine": f"{platform.machine()}, {os.cpu_count()} cores, {platform.python_implementation()} "
                       f"{platform.python_version()}", "cases": []}
     for name in names:

@@ -16,7 +16,6 @@ printed.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import platform
@@ -24,7 +23,7 @@ import time
 
 import numpy as np
 
-from _args import list_of, positive_float, positive_int, output_json
+from _args import Parser, float_in, list_of, output_json, positive_int, repo_path
 from bsrflow.analysis.compare_packing import PACKING_CASES, case_setup
 from bsrflow.physics.column import (STIFFNESS_ERROR_BOUNDS, ColumnSetup, impact_mach, run_bsr_column,
                                     stiffness_model, suggest_stiffness_factor)
@@ -38,12 +37,13 @@ def _peak(run, s):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", type=output_json, default="bench/results_packing_stiffness.json")
+    ap = Parser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--json", type=output_json, default=repo_path("bench/results_packing_stiffness.json"))
     ap.add_argument("--formulation", default="lagrangian", choices=("eulerian", "lagrangian"))
     ap.add_argument("--range", type=float, default=None, help="R/d (default: the formulation's)")
     ap.add_argument("--ppd", type=positive_int, default=10)
-    ap.add_argument("--mach", type=list_of(positive_float), default=[0.003, 0.01, 0.03])
+    ap.add_argument("--mach", type=list_of(float_in(0.0, 1.0, lo_open=True)), default=[0.003, 0.01, 0.03],
+                    help="Mach numbers, comma-separated, each in (0, 1]")
     ap.add_argument("--cases", default="all")
     args = ap.parse_args(argv)
     known = {c["name"]: c for c in PACKING_CASES}
@@ -51,8 +51,6 @@ def main(argv=None):
     for n in names:
         if n not in known:
             ap.error(f"--cases: {n!r} is not a case; valid: all or {', '.join(known)}")
-    if any(m > 1 for m in args.mach):
-        ap.error("--mach: each value must be in (0, 1]")
     try:
         probe = ColumnSetup(kernel_name="packing", formulation=args.formulation, range_over_d=args.range,
                             points_per_diameter=args.ppd)

@@ -18,7 +18,6 @@ Kutta's RK3 and classical RK4 as the first two rows.  About 1 min for the refere
 
 from __future__ import annotations
 
-import argparse
 import itertools
 import json
 import os
@@ -30,32 +29,26 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import bench_schemes as bs  # noqa: E402
-from _args import list_of, output_json, positive_float, positive_int  # noqa: E402
+from _args import Parser, float_in, int_in, list_of, output_json  # noqa: E402
 
 from bsrflow.numerics import steppers  # noqa: E402
 from bsrflow.numerics.solver import Scheme  # noqa: E402
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--nodes", type=list_of(positive_float), default="0.2,0.3,0.333,0.4,0.6,0.7,0.8",
+    ap = Parser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--nodes", type=list_of(float_in(0.0, 1.0, lo_open=True, hi_open=True)),
+                    default="0.2,0.3,0.333,0.4,0.6,0.7,0.8",
                     help="values tried for both c2 and c3, each in (0, 1) (default 0.2,0.3,0.333,0.4,0.6,0.7,0.8)")
-    ap.add_argument("--ppd", type=list_of(positive_int), default="10,20", help="grids, points per diameter >= 2 (default 10,20)")
-    ap.add_argument("--cfl", type=float, default=0.1,
+    ap.add_argument("--ppd", type=list_of(int_in(2)), default="10,20",
+                    help="grids, points per diameter >= 2 (default 10,20)")
+    ap.add_argument("--cfl", type=float_in(0.0, 1.7321, lo_open=True), default=0.1,
                     help="Courant number in (0, 1.7321], the limit of the Kutta RK3 row (default 0.1)")
-    ap.add_argument("--perturb", type=float, default=0.0,
+    ap.add_argument("--perturb", type=float_in(0.0, 1e-3), default=0.0,
                     help="relative perturbation of the initial density, in [0, 1e-3] (default 0)")
     ap.add_argument("--json", type=output_json, default=None, help="also write the table as JSON")
     args = ap.parse_args(argv)
     nodes, ppds = args.nodes, args.ppd
-    if not all(0 < v < 1 for v in nodes):
-        ap.error(f"--nodes = {nodes}: every node must be in (0, 1)")
-    if not all(p >= 2 for p in ppds):
-        ap.error(f"--ppd = {ppds}: every grid needs at least 2 points per diameter")
-    if not 0 < args.cfl <= 1.7321:
-        ap.error(f"--cfl = {args.cfl!r} is outside the valid range (0, 1.7321] (Kutta's RK3 row)")
-    if not 0 <= args.perturb <= 1e-3:
-        ap.error(f"--perturb = {args.perturb!r} is outside the valid range [0, 1e-3]")
     numba.set_num_threads(1)
     make_ref, ref_ppd = bs.REFERENCES["converged"]
     _, ref, res = bs.run(make_ref(), ref_ppd)
