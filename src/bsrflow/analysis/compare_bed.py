@@ -560,7 +560,49 @@ def reference_bed(ref: Path, n_cells=200):
     except (ValueError, KeyError, TypeError, OSError) as exc:
         raise ValueError(f"--reference {ref}: not the LIGGGHTS data folder's files "
                          f"({type(exc).__name__}: {' '.join(str(exc).split())})") from None
+    _check_gammas(ref, "flight_vs_gamma.csv", gammas, base)
     return gammas, params, base
+
+
+def _data_lines(lines) -> list:
+    """[(line number, text)] of the rows of a CSV of the LIGGGHTS data folder, as :func:`_read_csv`
+    reads it (``lines``: the file's lines): after the first line and the header, blank lines and
+    comments left out."""
+    rows = [(k + 1, t) for k, t in enumerate(lines) if k >= 1 and t.strip() and not t.lstrip().startswith("#")]
+    return rows[1:]
+
+
+def _raw_cells(lines, column: str) -> list:
+    """[(line number, text)] of ``column`` in each row of a CSV's ``lines`` (for the messages: the
+    value as written, which the parser read as NaN); [] when the rows do not split as the header."""
+    rows = [t for k, t in enumerate(lines) if k >= 1 and t.strip() and not t.lstrip().startswith("#")]
+    head = [h.strip() for h in rows[0].split(",")] if rows else []
+    if column not in head:
+        return []
+    i = head.index(column)
+    cells = [(n, t.split(",")) for n, t in _data_lines(lines)]
+    return [(n, c[i].strip()) for n, c in cells] if all(len(c) > i for _, c in cells) else []
+
+
+def _check_gammas(ref: Path, name: str, gammas, base: BedSetup, shown=None) -> None:
+    """Refuse (ValueError naming --reference and the file) a Γ of the reference's ``name`` (a
+    flight_vs_gamma CSV, read as ``gammas``) that is not a number the bed takes: the file is at
+    fault, not --gammas (it listed 'abc' as NaN, which --gammas then did not match)."""
+    for k, g in enumerate(gammas):
+        try:
+            base.with_(gamma=g)
+            continue
+        except ValueError as exc:
+            msg = str(exc).splitlines()[0]
+        try:
+            raw = dict(enumerate(_raw_cells((Path(ref) / name).read_text().splitlines(), "gamma")))[k]
+            where, text = f"{name} line {raw[0]}", raw[1]
+        except (OSError, UnicodeDecodeError, KeyError):
+            where, text = f"{name} row {k + 1}", f"{g!r}"
+        if not math.isfinite(g):
+            rng = msg[msg.index("valid range"):] if "valid range" in msg else "a finite number"
+            msg = f"gamma = {text!r} is not a number in the {rng}"
+        raise ValueError(f"--reference {ref if shown is None else shown}: {where}: {msg} (the Γ of a LIGGGHTS run)")
 
 
 SPRING_DASHPOT = "N2000_L13d_hooke"
@@ -661,7 +703,8 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
     if include_extra:
         e05 = _read_csv(ref / "flight_vs_gamma_e0.5.csv")
         tasks += [("case", base.with_(gamma=g, restitution=0.5), E05_RUNS, extra,
-                   "LIGGGHTS Walton-Braun e = 0.5, frictionless") for g in [float(x) for x in e05["gamma"]]]
+                   "LIGGGHTS Walton-Braun e = 0.5, frictionless")
+                  for g in [float(x) for x in np.atleast_1d(e05["gamma"])]]      # (one row: a 0-d array)
         tasks += [("case", base.with_(gamma=3.0), FRICTION_RUNS, extra,
                    "LIGGGHTS spring-dashpot, friction 0.5; the continuum smooth")]
         fric = _read_csv(ref / "flight_vs_gamma_hooke_mu0.5.csv")
@@ -1389,6 +1432,307 @@ def format_table(out) -> str:
     return "\n".join(rows)
 
 
+RUN_COLUMNS = {
+    "trajectory.csv": ("t_s", "com_rel_m"),
+    "flights.csv": ("t_takeoff_s", "t_landing_s"),
+    "temperature.csv": ("phase_cycles", "theta_m2_s2", "theta_z_m2_s2", "theta_h_m2_s2", "E_internal_J", "loss_W",
+                        "enskog_cs_loss_W"),
+    "internal_energy.csv": ("t_s", "E_internal_J"),
+    "floor_force.csv": ("t_s", "F_floor_N"),
+    "flight_vs_threshold.csv": ("threshold_over_weight", "flight_time_mean_last6_s"),
+    "structure_per_cycle.csv": ("cycle", "crystal_fraction", "phi_1_6d", "floor_layer_psi4", "floor_layer_psi6",
+                                "lateral_mode_over_d", "lateral_mode_shuffled_over_d"),
+    "profiles.csv": ("z_rel_over_d",) + tuple(f"phi_{k}" for k in PHASE_LABELS),
+    "temperature_profiles.csv": ("z_rel_over_d",) + tuple(f"{q}_{k}" for k in PHASE_LABELS
+                                                          for q in ("phi", "theta_z", "theta_h")),
+}
+"""The columns compare-bed reads from each CSV of a LIGGGHTS run's folder (results/gamma_<Γ>_<tag>/);
+the trajectory's also vz_com_m_s and com_lab_m for the energy budget, top99_rel_m for the Γ = 3
+figure (:func:`check_reference`)."""
+NAN_COLUMNS = frozenset({"t_landing_s"})
+"""Columns where NaN is data (a flight still going at the end of the run); every other column read
+must hold finite numbers."""
+SUMMARY_NUMBERS = ("n", "com_rel_mean_over_d", "top99_rel_max_over_d", "wall_time_s")
+"""The numbers compare-bed reads from a run's summary.json, beside its flight_time_per_cycle_s."""
+
+
+class _ReferenceFolder:
+    """The files of a LIGGGHTS data folder that one compare-bed command will read, each read and
+    parsed once as the comparison reads it (:func:`check_reference`); a problem is a ValueError of
+    one line naming ``--reference``, the file relative to the folder and what is wrong."""
+
+    def __init__(self, ref: Path, shown: str):
+        self.ref, self.shown = Path(ref), shown
+        self.parsed = {}                                  # relative path -> (its structured array, its lines)
+        self.runs = set()                                 # (Γ, tag, compared, gamma3_figures) checked
+
+    def refuse(self, text: str):
+        raise ValueError(f"--reference {self.shown}: {text}")
+
+    def _text(self, rel: str, why: str) -> str:
+        path = self.ref / rel
+        if not path.exists():
+            self.refuse(f"no {rel} there ({why})")
+        try:
+            return path.read_text()
+        except (OSError, UnicodeDecodeError) as exc:
+            self.refuse(f"{rel} cannot be read ({type(exc).__name__}: {' '.join(str(exc).split())})")
+
+    def csv(self, rel: str, columns, why: str):
+        """The CSV ``rel`` with ``columns`` (each holding finite numbers, but :data:`NAN_COLUMNS`)
+        and at least one row."""
+        import warnings
+        expected = f"expected a comment line, then a header naming {', '.join(columns)}, then rows of numbers"
+        data = self.parsed.get(rel)
+        if data is None:
+            text = self._text(rel, why)
+            if not text.strip():
+                self.refuse(f"{rel} is empty ({expected})")
+            lines = text.splitlines()
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("error")        # (numpy warns "Empty input file" and goes on)
+                    data = np.genfromtxt(lines, delimiter=",", names=True, skip_header=1)
+            except (IndexError, ValueError, StopIteration, UserWarning) as exc:
+                self.refuse(f"{rel} is not a CSV of the LIGGGHTS data folder ({expected}; {type(exc).__name__}: "
+                            f"{' '.join(str(exc).split())})")
+            self.parsed[rel] = data = (data, lines)
+        data, lines = data
+        names = data.dtype.names or ()
+        missing = [c for c in columns if c not in names]
+        if missing:
+            head = lines[1].strip() if len(lines) > 1 else ""
+            self.refuse(f"{rel} has no column {missing[0]} (its header, line 2: {head[:80]!r}"
+                        f"{'...' if len(head) > 80 else ''}; {expected})")
+        if data.size == 0:
+            self.refuse(f"{rel} has no rows under its header ({expected})")
+        for c in columns:
+            if c in NAN_COLUMNS:
+                continue
+            bad = np.flatnonzero(~np.isfinite(np.atleast_1d(data[c]).astype(float)))
+            if bad.size:
+                raw = dict(enumerate(_raw_cells(lines, c))).get(int(bad[0]))
+                where = f"line {raw[0]}" if raw else f"row {int(bad[0]) + 1}"
+                value = raw[1] if raw else "nan"
+                self.refuse(f"{rel} {where}: {c} = {value!r} is not a finite number")
+
+    def summary(self, rel: str, why: str, numbers=SUMMARY_NUMBERS):
+        """A run's summary.json: a JSON object with flight_time_per_cycle_s (numbers ≥ 0 or null, at
+        least one flight) and ``numbers`` (finite; n a count of spheres)."""
+        text = self._text(rel, why)
+        expected = f"expected the run's summary, a JSON object with flight_time_per_cycle_s, {', '.join(numbers)}"
+        if not text.strip():
+            self.refuse(f"{rel} is empty ({expected})")
+        try:
+            summ = json.loads(text)
+        except ValueError as exc:
+            self.refuse(f"{rel} is not JSON ({' '.join(str(exc).split())}; {expected})")
+        if not isinstance(summ, dict):
+            self.refuse(f"{rel} is not a JSON object ({expected})")
+        for key in ("flight_time_per_cycle_s",) + tuple(numbers):
+            if key not in summ:
+                self.refuse(f"{rel} has no key {key!r} ({expected})")
+        flights = summ["flight_time_per_cycle_s"]
+
+        def number(v):
+            return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+        if (not isinstance(flights, list) or not any(number(v) for v in flights)
+                or not all(v is None or (number(v) and v >= 0) for v in flights)):
+            self.refuse(f"{rel}: flight_time_per_cycle_s is {json.dumps(flights)[:60]}, expected a list of the "
+                        "flight per measured cycle [s] (numbers >= 0, null for a flight unfinished at the end), at "
+                        "least one")
+        for key in numbers:
+            v = summ[key]
+            if not number(v) or (key == "n" and not (v == int(v) and v >= 1)):
+                self.refuse(f"{rel}: {key} is {json.dumps(v)[:40]}, expected "
+                            + ("the number of spheres, an integer >= 1" if key == "n" else "a finite number"))
+
+    def run(self, gamma: float, tag: str, why: str, compared=True, gamma3_figures=False):
+        """The reference run ``tag`` at Γ = ``gamma``: its folder, trajectory.csv and summary.json,
+        and the optional files that :func:`_case_against` reads where present (``compared``: a run
+        the continuum is compared with; otherwise only its trajectory and flights are read), the
+        Γ = 3 figures' where ``gamma3_figures``."""
+        if (gamma, tag, compared, gamma3_figures) in self.runs:
+            return
+        self.runs.add((gamma, tag, compared, gamma3_figures))
+        d = _run_dir(self.ref, gamma, tag).relative_to(self.ref).as_posix()
+        if not (self.ref / d).is_dir():
+            self.refuse(f"no {d}/ there ({why})")
+        why = f"{why}; a run's folder holds trajectory.csv and summary.json"
+        has = {name: (self.ref / d / name).exists() for name in RUN_COLUMNS}
+        budget = all(has[n] for n in ("temperature.csv", "internal_energy.csv", "flights.csv", "floor_force.csv"))
+        self.csv(f"{d}/trajectory.csv", RUN_COLUMNS["trajectory.csv"]
+                 + (("vz_com_m_s", "com_lab_m") if compared and budget else ())
+                 + (("top99_rel_m",) if gamma3_figures else ()), why)
+        self.summary(f"{d}/summary.json", why, SUMMARY_NUMBERS if compared else ())
+        if not compared:
+            return
+        for name in ("flights.csv", "temperature.csv", "floor_force.csv", "flight_vs_threshold.csv",
+                     "structure_per_cycle.csv"):
+            if has[name]:
+                self.csv(f"{d}/{name}", RUN_COLUMNS[name], why)
+        if has["internal_energy.csv"] and has["temperature.csv"]:
+            self.csv(f"{d}/internal_energy.csv", RUN_COLUMNS["internal_energy.csv"], why)
+        if gamma3_figures and has["profiles.csv"]:
+            self.csv(f"{d}/profiles.csv", RUN_COLUMNS["profiles.csv"], why)
+        if gamma3_figures and has["temperature_profiles.csv"] and has["temperature.csv"]:
+            self.csv(f"{d}/temperature_profiles.csv", RUN_COLUMNS["temperature_profiles.csv"], why)
+
+    def gamma_list(self, name: str, base: BedSetup, why: str) -> list:
+        """The Γ of a flight_vs_gamma CSV, each one the bed takes."""
+        self.csv(name, ("gamma",), why)
+        gammas = [float(g) for g in np.atleast_1d(self.parsed[name][0]["gamma"])]
+        _check_gammas(self.ref, name, gammas, base, self.shown)
+        return gammas
+
+    def flight_lists(self, name: str):
+        """A flight_vs_gamma CSV as the bifurcation figure reads it (:func:`_dem_flights`, where
+        present): a gamma and a flight_times_s column, numbers (NaN: a flight unfinished)."""
+        import csv
+        if not (self.ref / name).exists():
+            return
+        lines = self._text(name, "")
+        rows = list(csv.reader(line for line in lines.splitlines(keepends=True) if not line.startswith("#")))
+        head = rows[0] if rows else []
+        for col in ("gamma", "flight_times_s"):
+            if col not in head:
+                self.refuse(f"{name} has no column {col} (the bifurcation figure of --figures reads gamma and "
+                            "flight_times_s: the flights of the measured cycles, separated by spaces)")
+        ig, it = head.index("gamma"), head.index("flight_times_s")
+        for k, r in enumerate(rows[1:], start=1):
+            try:
+                float(r[ig])
+                [float(x) for x in r[it].split()]
+            except (ValueError, IndexError):
+                self.refuse(f"{name} data row {k}: gamma and flight_times_s are {r[ig] if len(r) > ig else ''!r} and "
+                            f"{r[it] if len(r) > it else ''!r}, expected numbers (the flights separated by spaces)")
+
+
+EULERIAN_FIELDS = {"--eulerian-cells-per-d": "cells_per_d", "--eulerian-lateral-cells": "lateral_cells",
+                   "--eulerian-perturbation": "perturbation", "--eulerian": "dimension"}
+"""compare-bed's options of the Eulerian grid and the fields of
+:class:`~bsrflow.physics.granular_bed.EulerianBedSetup` they set."""
+
+
+def _eulerian_option_text(msg: str) -> str:
+    """An :class:`EulerianBedSetup` message in compare-bed's words: the option for the field, and a
+    range "at most N with the other fields as given" as the option's integers."""
+    import re
+    option = next((o for o, k in EULERIAN_FIELDS.items() if msg.startswith(k + " = ")), None)
+    if option is not None:
+        field = EULERIAN_FIELDS[option]
+        msg = option + " " + msg[len(field) + 3:]
+        lo, hi = (1, MAX_CELLS_PER_D) if field == "cells_per_d" else (2, MAX_LATERAL_CELLS)
+        msg = re.sub(r"valid range at these settings \((at most|at least) (\d+) with the other fields as given\)",
+                     lambda m: (f"valid range at these settings, integers in "
+                                f"{f'[{lo}, {m[2]}]' if m[1] == 'at most' else f'[{m[2]}, {hi}]'} with the other "
+                                "options as given"), msg)
+    return msg.replace("at dimension = ", "at --eulerian ").replace("with the other fields as given",
+                                                                     "with the other options as given")
+
+
+def check_eulerian_options(setup: BedSetup, eulerian: dict, given) -> None:
+    """Refuse (ValueError, one line naming an option and its valid range) the Eulerian grid of
+    ``compare-bed --eulerian`` (``eulerian``: :func:`compare_bed`'s keywords) for the bed ``setup``
+    (the longest case run): its options' ranges and its cost (nothing allocated).  ``given``: the
+    fields (:data:`EULERIAN_FIELDS`) of the options given.  The cost check blames cells_per_d; when
+    that option is not given, or no value of it fits (``--eulerian 3 --eulerian-lateral-cells 256``
+    said "--eulerian-cells-per-d 4 ..., none fits"), the given option that mends the grid is named
+    with its range at the other settings, the one furthest from its default first, as ``bsrflow
+    run``'s config (:func:`bsrflow.io.layer_runner._bed_reblamed`); if none mends it alone, the
+    message says which must change together."""
+    from ..io.layer_runner import _bed_reblamed
+    from ..physics.granular_bed import EulerianBedSetup
+    kw = {**setup.to_dict(), "dimension": eulerian["dim"], "cells_per_d": eulerian["cells_per_d"],
+          "lateral_cells": eulerian["lateral_cells"], "perturbation": eulerian["perturbation"]}
+    try:
+        EulerianBedSetup(**kw)
+        return
+    except ValueError as exc:
+        msg = str(exc).splitlines()[0]
+    blamed = next((k for k in EULERIAN_FIELDS.values() if msg.startswith(k + " = ")), None)
+    if blamed is None or (blamed in given and "none fits" not in msg):
+        raise ValueError(_eulerian_option_text(msg))        # names the option given, with its range
+    defaults = {"cells_per_d": 4, "lateral_cells": 1 if kw["dimension"] == 1 else 4}    # (_main's)
+    menders = sorted((k for k in defaults if k in given and kw[k] != defaults[k] and kw[k] > 0),
+                     key=lambda k: abs(math.log(kw[k] / defaults[k])), reverse=True)
+    for name in menders:
+        problem = _bed_reblamed(EulerianBedSetup, kw, {name}, msg)
+        if problem is not None:
+            raise ValueError(_eulerian_option_text(problem[1]))
+    why = msg.split(": ", 1)[1] if ": " in msg else msg
+    options = [o for o, k in EULERIAN_FIELDS.items() if k in menders]
+    if len(options) > 1:
+        try:
+            EulerianBedSetup(**{**kw, **defaults})
+            fix = f" (their defaults, {' and '.join(f'{o} {defaults[EULERIAN_FIELDS[o]]}' for o in options)}, fit)"
+        except ValueError:
+            fix = ""
+        raise ValueError(f"{' and '.join(f'{o} {kw[EULERIAN_FIELDS[o]]}' for o in options)} do not fit together at "
+                         f"these settings: neither alone mends it, lower them together{fix}: {why}")
+    raise ValueError(_eulerian_option_text(msg))
+
+
+def check_reference(reference, gammas=None, include_extra=True, figures=False, shown=None) -> None:
+    """Refuse (ValueError, one line naming ``--reference``, the file relative to the folder and what
+    is wrong) a LIGGGHTS data folder that lacks a run or holds a damaged file that
+    ``compare_bed(gammas, reference=reference, include_extra=..., figures=...)`` would read, before
+    any run: the main run at every Γ of ``gammas`` (default: every Γ of flight_vs_gamma.csv), with
+    ``include_extra`` the e = 0.5, frictional and elastic-floor runs the reference lists, and the
+    runs taken where present (spring-dashpot, large box, other packings, 30-cycle runs), each file
+    read and parsed once.  Without these checks a folder with no runs gave NaN for LIGGGHTS and
+    exit 0, and a damaged file a message naming no file after the work had started."""
+    ref = Path(reference)
+    f = _ReferenceFolder(ref, os.fspath(reference) if shown is None else shown)
+    if not (ref / "results").is_dir():
+        f.refuse(f"results is not a folder ({'missing' if not (ref / 'results').exists() else 'a file'}; it holds "
+                 "the LIGGGHTS runs, results/gamma_<Γ>_<tag>/)")
+    known, params, base = reference_bed(ref)
+    gammas = known if gammas is None else [float(g) for g in gammas]
+    for g in gammas:
+        f.run(g, MAIN_RUNS, f"the main LIGGGHTS run at Γ = {g:g}, listed in flight_vs_gamma.csv",
+              gamma3_figures=bool(figures) and g == 3.0)
+    for key in ("period_doubling_gamma",) + (() if not include_extra else (
+            "period_doubling_gamma_friction_mu0.5", "period_doubling_gamma_spring_dashpot",
+            "period_doubling_gamma_exploratory_e0.5")):
+        if not isinstance(params.get(key), (dict, type(None))):
+            f.refuse(f"params.json: {key} is {json.dumps(params[key])[:40]}, expected an object "
+                     "({\"estimate\": Γ or null, ...})")
+    if figures:
+        for name in ("flight_vs_gamma.csv", "flight_vs_gamma_hooke.csv", "flight_vs_gamma_hooke_mu0.5.csv"):
+            f.flight_lists(name)
+    if not include_extra:
+        return
+    skip = "; --no-extra skips it"
+    for g in f.gamma_list("flight_vs_gamma_e0.5.csv", base, "the e = 0.5 runs' Γ" + skip):
+        f.run(g, E05_RUNS, f"the e = 0.5 LIGGGHTS run at Γ = {g:g}, listed in flight_vs_gamma_e0.5.csv{skip}")
+    f.run(3.0, FRICTION_RUNS, f"the frictional LIGGGHTS run at Γ = 3 (μ = {FRICTION:g}){skip}")
+    for g in f.gamma_list("flight_vs_gamma_hooke_mu0.5.csv", base, "the frictional runs' Γ" + skip):
+        f.run(g, FRICTION_RUNS, f"the frictional LIGGGHTS run at Γ = {g:g}, listed in "
+                                f"flight_vs_gamma_hooke_mu0.5.csv{skip}")
+    elastic = params.get("gamma_list_elastic_floor") or []
+    if not isinstance(elastic, list) or not all(isinstance(g, (int, float)) and not isinstance(g, bool)
+                                                and math.isfinite(g) for g in elastic):
+        f.refuse(f"params.json: gamma_list_elastic_floor is {json.dumps(elastic)[:40]}, expected a list of the "
+                 "elastic-floor runs' Γ (numbers)")
+    elastic = [float(g) for g in elastic if float(g) in gammas]
+    for g in elastic:
+        f.run(g, ELASTIC_FLOOR, f"the elastic-floor LIGGGHTS run at Γ = {g:g}, listed in params.json's "
+                                f"gamma_list_elastic_floor{skip}")
+    for g in gammas:                                   # the runs taken where present, as compare_bed finds them
+        for tag in (SPRING_DASHPOT, LARGE_BOX):
+            if (_run_dir(ref, g, tag) / "trajectory.csv").exists():
+                f.run(g, tag, "a LIGGGHTS run taken where present")
+        for tag in _other_packing_tags(ref, g):
+            f.run(g, tag, "a LIGGGHTS run taken where present")
+        for tag, _, _, _ in _long_runs(ref, g, base):
+            f.run(g, tag, "a 30-cycle LIGGGHTS run, taken where its summary.json is")
+        if g in elastic:                               # the floor's effect (_floor_contact_effect)
+            for tag in (MAIN_RUNS + "_ew0.95", SPRING_DASHPOT + "_ew1"):
+                if (_run_dir(ref, g, tag) / "trajectory.csv").exists():
+                    f.run(g, tag, "a LIGGGHTS run taken where present", compared=False)
+
+
 def add_parser(sub):
     helptext = ("the vibrated bed's continuum (packing stress + granular temperature, horizontally uniform) "
                 "against the committed LIGGGHTS data")
@@ -1397,7 +1741,7 @@ def add_parser(sub):
     p.add_argument("--figures", metavar="DIR", help="write the figures to DIR (created if missing; the folder "
                                                      "holding it must exist)")
     p.add_argument("--gammas", type=Number(float, "the LIGGGHTS runs' Γ, 1.5 to 8 in steps of 0.5 (the repository's "
-                                            "data)"), nargs="+", metavar="G",
+                                            "data)"), nargs="*", metavar="G",
                    help="only these Γ of the main runs (default: every Γ of the LIGGGHTS runs, 1.5 to 8)")
     p.add_argument("--cells", type=Number(int, f"[{CELLS_RANGE[0]}, {CELLS_RANGE[1]}]"), default=200, metavar="N", help="Lagrangian cells over the bed (default 200)")
     p.add_argument("--no-extra", action="store_true",
@@ -1438,7 +1782,13 @@ def _main(args) -> int:
     if missing:
         raise ValueError(f"--reference {args.reference}: no {missing[0]} there (the LIGGGHTS data folder holds "
                          f"{', '.join(need)})")
+    if not (ref / "results").is_dir():
+        raise ValueError(f"--reference {args.reference}: results is not a folder (the LIGGGHTS data folder's "
+                         "results/ holds the runs, results/gamma_<Γ>_<tag>/)")
     known, _, _ = reference_bed(ref)
+    if args.gammas == []:              # (nargs "*": argparse's "expected at least one argument" named no value)
+        raise ValueError("--gammas needs at least one value: the LIGGGHTS runs' Γ, "
+                         + ", ".join(f"{k:g}" for k in known))
     if not (CELLS_RANGE[0] <= args.cells <= CELLS_RANGE[1]):
         raise ValueError(f"--cells {args.cells} is outside the valid range [{CELLS_RANGE[0]}, {CELLS_RANGE[1]}]")
     if args.gammas:
@@ -1469,19 +1819,12 @@ def _main(args) -> int:
                     "lateral_cells": (1 if args.eulerian == 1 else 4 if args.eulerian_lateral_cells is None
                                       else args.eulerian_lateral_cells),
                     "perturbation": 0.0 if args.eulerian_perturbation is None else args.eulerian_perturbation}
-        from ..physics.granular_bed import EulerianBedSetup
-        try:                       # the grid's options and its cost, for the longest case run (nothing allocated)
-            base = reference_bed(ref)[2]
-            EulerianBedSetup(**{**base.to_dict(), "gamma": max(args.gammas or known)}, dimension=eulerian["dim"],
-                             cells_per_d=eulerian["cells_per_d"], lateral_cells=eulerian["lateral_cells"],
-                             perturbation=eulerian["perturbation"])
-        except ValueError as exc:
-            msg = str(exc)
-            for k, v in (("cells_per_d", "--eulerian-cells-per-d"), ("lateral_cells", "--eulerian-lateral-cells"),
-                         ("perturbation", "--eulerian-perturbation"), ("dimension", "--eulerian")):
-                if msg.startswith(k + " = "):
-                    msg = v + " " + msg[len(k) + 3:]
-            raise ValueError(msg.replace("at dimension = ", "at --eulerian ")) from None
+        # the grid's options and its cost, for the longest case run (nothing allocated)
+        check_eulerian_options(reference_bed(ref)[2].with_(gamma=max(args.gammas or known)), eulerian,
+                               {EULERIAN_FIELDS[o] for o in given} | {"dimension"})
+    # every file of the reference that the comparison will read, before the banner and the runs
+    check_reference(ref, args.gammas, include_extra=not args.no_extra, figures=args.figures is not None,
+                    shown=args.reference)
     if args.figures is not None:                     # created only once everything else is checked
         check_output_dir(args.figures, "--figures", create=True)
     t0 = time.perf_counter()
