@@ -267,15 +267,18 @@ def test_compare_bed_command_writes_the_schema(tmp_path, capsys):
                                          "--eulerian-lateral-cells 1 is outside the valid range at --eulerian 3"),
                                         (["--eulerian", "2", "--eulerian-lateral-cells", "0"],
                                          "--eulerian-lateral-cells 0 is outside the valid range at --eulerian 2"),
+                                        # the given option furthest from its default, with its range (it named
+                                        # --eulerian-cells-per-d, whose range was empty: a fuzzing review)
                                         (["--eulerian", "3", "--eulerian-lateral-cells", "256", "--eulerian-cells-per-d",
-                                          "8"], "--eulerian-cells-per-d 8 is outside the valid range at these settings"),
+                                          "8"], "--eulerian-lateral-cells 256 is outside the valid range at these "
+                                                "settings, integers in [2, "),
                                         # the range of cells per d at these settings (it gave none: a fuzzing review)
                                         (["--eulerian", "3", "--eulerian-lateral-cells", "100", "--eulerian-cells-per-d",
                                           "8"], "--eulerian-cells-per-d 8 is outside the valid range at these settings, "
                                                 "integers in [1, 3]: the run would take about"),
                                         (["--eulerian", "3", "--eulerian-lateral-cells", "256", "--eulerian-cells-per-d",
-                                          "64"], "--eulerian-cells-per-d 64 is outside the valid range at these settings, "
-                                                 "none fits: the run would take about"),
+                                          "64"], "--eulerian-lateral-cells 256 is outside the valid range at these "
+                                                 "settings, integers in [2, 12] with the other options as given"),
                                         (["--eulerian", "2", "--eulerian-perturbation", "1"],
                                          "--eulerian-perturbation 1.0 is outside the valid range"),
                                         (["--eulerian", "2", "--eulerian-perturbation", "0.06"],

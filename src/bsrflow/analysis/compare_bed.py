@@ -50,6 +50,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import time
 from pathlib import Path
 
@@ -1651,7 +1652,8 @@ def check_eulerian_options(setup: BedSetup, eulerian: dict, given) -> None:
     except ValueError as exc:
         msg = str(exc).splitlines()[0]
     blamed = next((k for k in EULERIAN_FIELDS.values() if msg.startswith(k + " = ")), None)
-    if blamed is None or (blamed in given and "none fits" not in msg):
+    states_range = re.search(r"valid range[^\[(]*[\[(]\s*[-\d]", msg) is not None and "none fits" not in msg
+    if blamed is None or (blamed in given and states_range):
         raise ValueError(_eulerian_option_text(msg))        # names the option given, with its range
     defaults = {"cells_per_d": 4, "lateral_cells": 1 if kw["dimension"] == 1 else 4}    # (_main's)
     menders = sorted((k for k in defaults if k in given and kw[k] != defaults[k] and kw[k] > 0),

@@ -516,12 +516,13 @@ class EulerianBedSetup(BedSetup):
             return cells * steps <= MAX_CELL_STEPS and steps <= MAX_STEPS and cells <= MAX_EULERIAN_CELLS
         cells = cost(self.cells_per_d)[0]
         if cells > MAX_EULERIAN_CELLS:
-            n_max = next((n for n in range(self.cells_per_d - 1, 0, -1) if cost(n)[0] <= MAX_EULERIAN_CELLS), None)
+            n_max = next((n for n in range(self.cells_per_d - 1, 0, -1) if fits(n)), None)
             if n_max is None:
                 raise ValueError(f"lateral_cells = {self.lateral_cells!r} is outside the valid range at these settings: "
-                                 f"the grid would have {cells} cells even at 1 cell per d (at most "
-                                 f"{MAX_EULERIAN_CELLS:.0e}, 360 bytes each): fewer cells across or a lower "
-                                 "output_height")
+                                 f"the grid would have {cells} cells (at most {MAX_EULERIAN_CELLS:.0e}, 360 bytes "
+                                 "each), and no cells_per_d fits both that and the run's length (at most "
+                                 f"{MAX_CELL_STEPS:.0e} cell-steps): fewer cells across, a lower output_height or "
+                                 "fewer cycles")
             raise ValueError(f"cells_per_d = {self.cells_per_d!r} is outside the valid range at these settings, "
                              f"integers in [1, {n_max}]: the grid would have {cells} cells (at most "
                              f"{MAX_EULERIAN_CELLS:.0e}, 360 bytes each)")
