@@ -100,7 +100,7 @@ def test_layer_config_runs_into_netcdf_and_vtk(tmp_path, run_layer_file):
     ("[layer]\nkind = \"granular_bed\"\ncycles = 10000000\n",
      "layer.cycles: cycles = 10000000 is outside the valid range at these settings (at most 19076 with the other"),
     ("[layer]\nkind = \"granular_bed\"\nside = 100.0\n",
-     "layer.side: side = 100.0 is outside the valid range at these settings (at most 0.2028 with the other"),
+     "layer.side: side = 100.0 m is outside the valid range at these settings, (0, 0.2028] m (with n_spheres = 2000"),
     ("[layer]\nkind = \"granular_bed_eulerian\"\ndimension = 1\nn_spheres = 10000000\n",
      "layer.n_spheres: n_spheres = 10000000 is outside the valid range at these settings (at most 1768442 with"),
     ("[layer]\nkind = \"granular_bed_eulerian\"\ndimension = 1\ncells_per_d = 1\ncycles = 10000000\n",

@@ -85,6 +85,7 @@ from numba import prange
 from ..physics.granular_bed import bulk_viscosity, conductivity, g0_cs, kinetic_pressure, shear_viscosity
 from ..physics.packing import history_update
 from . import packing_kernels as pk
+from .grid import spread_over_bins
 from .tracers import tracer_combine, tracer_stage
 
 __all__ = ["EulerianBed", "run_eulerian_bed", "bed_rhs", "bed_post_step", "bed_stable_dt", "bed_advance",
@@ -970,12 +971,7 @@ class EulerianBed:
         mass = self.q[RHO].sum(axis=(0, 1)) * cell_area * dz           # per z-cell [kg]
         mom = self.q[MZ].sum(axis=(0, 1)) * cell_area * dz
         edges = g.lower[-1] + g.dx * np.arange(g.shape[0] + 1)
-        zf = np.arange(len(mass) + 1) * dz
-        lo = np.clip(zf[:-1, None], edges[None, :-1], edges[None, 1:])
-        hi = np.clip(zf[1:, None], edges[None, :-1], edges[None, 1:])
-        frac = (hi - lo) / dz
-        m_bin = (mass[:, None] * frac).sum(axis=0)
-        p_bin = (mom[:, None] * frac).sum(axis=0)
+        m_bin, p_bin = spread_over_bins(np.arange(len(mass) + 1) * dz, edges, mass, mom)
         u = np.where(m_bin > 0.0, p_bin / np.where(m_bin > 0.0, m_bin, 1.0), 0.0)
         return u[None, :], m_bin / g.dx
 

@@ -47,6 +47,7 @@ from ..physics.granular_bed import (conductivity, constitutive_numpy, dissipatio
                                     wall_loss)
 from ..physics.packing import history_update, packing_force, packing_force_numpy
 from .controller import restore_named_fields
+from .grid import spread_over_bins
 
 __all__ = ["GranularBedColumn", "bed_step", "bed_advance", "stable_dt", "bed_step_numpy", "floor_reaction", "static_bed", "run_bed",
            "BedResult"]
@@ -469,13 +470,9 @@ class GranularBedColumn:
         """(u (1, nz) [m/s], ρ (nz) [kg/m]) on the output grid (class docstring)."""
         s = self.setup
         edges = self.grid.lower[-1] + self.grid.dx * np.arange(self.grid.shape[0] + 1)
-        lo = np.clip(self.zf[:-1, None], edges[None, :-1], edges[None, 1:])
-        hi = np.clip(self.zf[1:, None], edges[None, :-1], edges[None, 1:])
-        frac = (hi - lo) / np.diff(self.zf)[:, None]                 # share of cell j in bin k
-        mass = self.mu * s.area * frac                                # [kg]
-        m_bin = mass.sum(axis=0)
+        cell_mass = np.full(self.zf.size - 1, self.mu * s.area)                  # [kg]
         vc = 0.5 * (self.vf[1:] + self.vf[:-1])
-        mom = (mass * vc[:, None]).sum(axis=0)
+        m_bin, mom = spread_over_bins(self.zf, edges, cell_mass, cell_mass * vc)
         u = np.where(m_bin > 0.0, mom / np.where(m_bin > 0.0, m_bin, 1.0), 0.0)
         return u[None, :], m_bin / self.grid.dx
 
