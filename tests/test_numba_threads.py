@@ -40,3 +40,15 @@ def test_a_user_choice_of_layer_stands(monkeypatch):
     out = subprocess.run([sys.executable, "-c", "import bsrflow; print(bsrflow.NUMBA_THREADING_LAYER_PRIORITY)"],
                          capture_output=True, text=True, check=True, env=dict(os.environ, NUMBA_THREADING_LAYER_PRIORITY="tbb omp workqueue"))
     assert out.stdout.strip() == "None"
+
+
+def test_openmp_waits_passively_unless_the_user_chose():
+    """OMP_WAIT_POLICY=PASSIVE is set before numba's omp layer starts (spinning threads slowed a
+    shared machine's runs); a value the user set stands."""
+    code = "import os, bsrflow; print(bsrflow.OMP_WAIT_POLICY, os.environ['OMP_WAIT_POLICY'])"
+    env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)
+    assert out.stdout.split() == ["PASSIVE", "PASSIVE"]
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         env=dict(env, OMP_WAIT_POLICY="ACTIVE"))
+    assert out.stdout.split() == ["None", "ACTIVE"]

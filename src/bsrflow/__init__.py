@@ -14,11 +14,14 @@ NUMBA_CACHE_DIR = use_versioned_cache_dir()
 """The folder of this version's compiled functions (:mod:`bsrflow._numba_cache`), or None when
 numba's default (or the user's ``NUMBA_CACHE_DIR``) is used."""
 
-from ._numba_threads import prefer_leak_free_layers  # noqa: E402
+from ._numba_threads import prefer_leak_free_layers, prefer_passive_omp_wait  # noqa: E402
 
 NUMBA_THREADING_LAYER_PRIORITY = prefer_leak_free_layers()
 """numba's threading layers in the order the package prefers them (:mod:`bsrflow._numba_threads`:
 tbb leaked memory at every parallel launch here), or None when the user's environment chose."""
+OMP_WAIT_POLICY = prefer_passive_omp_wait()
+"""``PASSIVE``, set for GNU OpenMP (its threads spinning between parallel regions slowed a shared
+machine's runs, :mod:`bsrflow._numba_threads`), or None when the user's environment set it."""
 
 from .numerics.grid import Grid1D  # noqa: E402
 from .numerics.grid_nd import GridND  # noqa: E402
