@@ -188,3 +188,13 @@ def merge_json(path: str, key: str, value) -> str:
         json.dump(data, fh, indent=2)
     print(f"wrote {path} (key {key})")
     return path
+
+
+def write_json(path: str, data) -> None:
+    """Write ``data`` to the JSON file ``path`` (replaced) and say so."""
+    import json
+
+    with open(path, "w") as fh:
+        json.dump(data, fh, indent=1)
+    print(f"wrote {path}")
+

@@ -14,12 +14,11 @@ first landing comes in the second cycle, near 1.6 cycles).  Each line also gives
 
 from __future__ import annotations
 
-import json
 import time
 
 import numpy as np
 
-from _args import Parser, int_in, list_of, output_json
+from _args import Parser, int_in, list_of, output_json, write_json
 from bsrflow.numerics.bed_eulerian import RHO, EulerianBed
 from bsrflow.physics.granular_bed import BedSetup
 
@@ -74,9 +73,7 @@ def main(argv=None) -> int:
         cyc = " / ".join("[" + ", ".join(f"{v:.2e}" for v in row) + "]" for row in r["largest_drift_by_cycle"])
         print(f"{c:7d} | {cyc} | {r['wall_s']:.0f}", flush=True)
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump({"gamma": 3.0, "cases": out}, fh, indent=1)
-        print(f"wrote {args.json}")
+        write_json(args.json, {"gamma": 3.0, "cases": out})
     return 0
 
 

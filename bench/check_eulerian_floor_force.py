@@ -18,13 +18,12 @@ limiter, which keeps the cell's value at the mirror).  The flight measure cuts t
 
 from __future__ import annotations
 
-import json
 import math
 import time
 
 import numpy as np
 
-from _args import Parser, int_in, list_of, output_json
+from _args import Parser, int_in, list_of, output_json, write_json
 from bsrflow.numerics.bed_eulerian import ENER, MZ, RHO, EulerianBed, kinetic_sound_speed
 from bsrflow.numerics.bed_lagrangian import GranularBedColumn
 from bsrflow.physics.granular_bed import BedSetup, kinetic_pressure
@@ -110,9 +109,7 @@ def main(argv=None) -> int:
                   f"{w['kinetic_pressure_over_weight']:.3f} | {w['momentum_flux_over_weight']:.3f} | "
                   f"{w['wave_term_over_weight']:.3f}", flush=True)
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump({"gamma": 3.0, "cases": out}, fh, indent=1)
-        print(f"wrote {args.json}")
+        write_json(args.json, {"gamma": 3.0, "cases": out})
     return 0
 
 
