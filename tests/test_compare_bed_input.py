@@ -191,3 +191,14 @@ def test_gammas_without_a_value_states_the_references_gammas(tmp_path, capsys):
 def test_the_committed_reference_passes_the_checks(kw):
     """Every file of the committed data that any comparison reads passes (symlinked folders too)."""
     check_reference(REFERENCE, **kw)
+
+
+def test_a_period_doubling_estimate_that_is_not_a_number_is_refused_up_front(capsys, tmp_path):
+    """{"estimate": "none"} in params.json passed the check and ended the command after every run
+    with "Unknown format code 'g'" naming no file (a review)."""
+    import json
+    params = json.loads((REFERENCE / "params.json").read_text())
+    params["period_doubling_gamma"] = {"estimate": "none"}
+    ref = damaged_reference(tmp_path, top={"params.json": json.dumps(params)})
+    refused(capsys, tmp_path, ["--reference", str(ref), "--gammas", "3", "--no-extra"],
+            "--reference", "params.json: period_doubling_gamma is", "expected an object")

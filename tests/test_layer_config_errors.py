@@ -333,9 +333,21 @@ def test_the_eulerian_lid_bound_is_stated_first_and_accepted(cells_per_d, tmp_pa
 
 def test_the_stated_save_every_bound_is_accepted(tmp_path, capsys):
     """save_every = 5e-8 s, the stated lower end of [5e-08, inf) s, was refused (0.05 / 5e-8 is
-    one ulp above 1e6 intervals), and the field's own upper bound (1 s) was not stated."""
+    one ulp above 1e6 intervals), and the upper bound (t_end here) was not stated."""
     head = '[layer]\nkind = "granular_bed"\ncycles = 1\n'
     err = refused(tmp_path, capsys, f"{head}save_every = 1e-300\n")
-    assert "valid range [5e-08, 1] s (at most 1000000 snapshots)" in err, err
+    assert "valid range [5e-08, 0.05] s (at most 1000000 snapshots)" in err, err
     from bsrflow.numerics.solver import save_schedule
     assert save_schedule(0.0, 0.05, 5e-8).size == 1_000_001
+
+
+@pytest.mark.parametrize("text", ['kind = "granular_bed"\ngamma = 3\ncycles = 1\nfrequency = 81.1',
+                                  'kind = "tapped_layer"\nt_end = 0.0123456789'])
+def test_the_stated_save_every_range_is_accepted_at_both_ends(text, tmp_path, capsys):
+    """Printed to four digits, the ends were rounded outwards (1.233e-08 for 1.2330...e-08; t_end
+    0.0123457 for 0.0123456789) and refused (a review): each end is rounded inwards."""
+    err = refused(tmp_path, capsys, f"[layer]\n{text}\nsave_every = 1e-300\n")
+    m = re.search(r"valid range \[([0-9.e+-]+), ([0-9.e+-]+)\] s", err)
+    assert m, err
+    for end in m.groups():
+        assert loads(tmp_path, f"[layer]\n{text}\nsave_every = {end}\n")

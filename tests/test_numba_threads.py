@@ -52,3 +52,22 @@ def test_openmp_waits_passively_unless_the_user_chose():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          env=dict(env, OMP_WAIT_POLICY="ACTIVE"))
     assert out.stdout.split() == ["None", "ACTIVE"]
+
+
+def test_the_wait_policy_is_not_claimed_once_openmp_is_loaded():
+    """GNU OpenMP reads OMP_WAIT_POLICY once, when it loads: loaded first (here by numba's omp
+    layer), the package sets nothing and says so (None), as a review found it claimed PASSIVE."""
+    code = ("import numba, numpy as np\n"
+            "numba.config.THREADING_LAYER = 'omp'\n"
+            "@numba.njit(parallel=True)\n"
+            "def f(a):\n"
+            "    for i in numba.prange(a.size):\n"
+            "        a[i] += 1\n"
+            "f(np.zeros(8))\n"
+            "import os, bsrflow\n"
+            "print(bsrflow.OMP_WAIT_POLICY, os.environ.get('OMP_WAIT_POLICY'))\n")
+    env = {k: v for k, v in os.environ.items() if k not in ("OMP_WAIT_POLICY", "NUMBA_THREADING_LAYER")}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    if out.returncode != 0 and "omp" in out.stderr.lower():
+        pytest.skip("numba's omp layer is not available here")
+    assert out.stdout.split() == ["None", "None"], out.stderr

@@ -42,11 +42,22 @@ def prefer_leak_free_layers() -> list | None:
 
 
 def prefer_passive_omp_wait() -> str | None:
-    """Set ``OMP_WAIT_POLICY=PASSIVE`` in the environment (read by GNU OpenMP when numba's omp
-    layer first starts, after this) unless the user set it (module docstring); returns the value
-    set, or None when the user's stands."""
-    if os.environ.get("OMP_WAIT_POLICY"):
+    """Set ``OMP_WAIT_POLICY=PASSIVE`` in the environment (read by GNU OpenMP once, when it loads:
+    with numba's omp layer, at the first parallel loop, after this) unless the user set it or GNU
+    OpenMP is loaded already (by another library imported first; then setting it would change
+    nothing here and only the child processes), module docstring; returns the value set, or None."""
+    if os.environ.get("OMP_WAIT_POLICY") or _gomp_loaded():
         return None
     os.environ["OMP_WAIT_POLICY"] = "PASSIVE"
     return "PASSIVE"
+
+
+def _gomp_loaded() -> bool:
+    """True when this process has GNU OpenMP (libgomp) loaded (Linux: /proc/self/maps; False
+    where that cannot be read)."""
+    try:
+        with open("/proc/self/maps") as fh:
+            return "libgomp" in fh.read()
+    except OSError:
+        return False
 

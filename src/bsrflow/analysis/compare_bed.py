@@ -1697,8 +1697,12 @@ def check_reference(reference, gammas=None, include_extra=True, figures=False, s
     for key in ("period_doubling_gamma",) + (() if not include_extra else (
             "period_doubling_gamma_friction_mu0.5", "period_doubling_gamma_spring_dashpot",
             "period_doubling_gamma_exploratory_e0.5")):
-        if not isinstance(params.get(key), (dict, type(None))):
-            f.refuse(f"params.json: {key} is {json.dumps(params[key])[:40]}, expected an object "
+        entry = params.get(key)
+        estimate = entry.get("estimate") if isinstance(entry, dict) else None
+        if not isinstance(entry, (dict, type(None))) or not (
+                estimate is None or (isinstance(estimate, (int, float)) and not isinstance(estimate, bool)
+                                     and math.isfinite(estimate))):
+            f.refuse(f"params.json: {key} is {json.dumps(entry)[:40]}, expected an object "
                      "({\"estimate\": Γ or null, ...})")
     if figures:
         for name in ("flight_vs_gamma.csv", "flight_vs_gamma_hooke.csv", "flight_vs_gamma_hooke_mu0.5.csv"):

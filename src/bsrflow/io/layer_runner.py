@@ -1323,7 +1323,8 @@ def _run_files(cfg: LayerConfig, out):
     try:
         kind = {v: k for k, v in _kind_classes().items()}[type(cfg.setup)]
         spec = _RANGES[kind].get("save_every")
-        hi = spec.hi if isinstance(spec, _Range) else cfg.setup.t_end if "t_end" in str(spec) else np.inf
+        hi = (min(spec.hi, cfg.setup.t_end) if isinstance(spec, _Range)       # (the bed kinds: also <= t_end)
+              else cfg.setup.t_end if "t_end" in str(spec) else np.inf)
         save_times = save_schedule(0.0, cfg.setup.t_end, cfg.setup.save_every, save_every_max=hi)
     except ValueError as exc:                    # too many snapshots: name the fields
         raise ConfigError("layer.save_every", f"{exc} (layer.t_end = {cfg.setup.t_end!r} s)") from None

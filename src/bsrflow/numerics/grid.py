@@ -117,5 +117,6 @@ def spread_over_bins(faces, edges, *amounts):
     keep = (cell >= 0) & (cell < n) & (b >= 0) & (b < nb)
     cell, b = cell[keep], b[keep]
     frac = np.diff(pts)[keep] / (faces[cell + 1] - faces[cell])
-    return tuple(np.bincount(b, np.asarray(a, dtype=float)[cell] * frac, minlength=nb) for a in amounts)
+    return tuple(np.bincount(b, np.asarray(a, dtype=float)[cell] * frac, minlength=nb).astype(float, copy=False)
+                 for a in amounts)
 
