@@ -76,6 +76,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._bounds import printed_bound
 from .checkpoint import Checkpoint, checkpoint_path
 from .config import ConfigError
 from .driver import OTHER_KIND, RunJob, RunOutcome, drive, first_difference
@@ -658,13 +659,8 @@ def _value_text(kind: str, s, name: str) -> str:
 
 
 def _fmt(x: float, down: bool) -> str:
-    """``x`` to four significant digits, rounded down (``down``) or up: a bound printed inside the
-    valid range."""
-    if x == 0 or not math.isfinite(x):
-        return _g(x)
-    q = 10.0 ** (math.floor(math.log10(abs(x))) - 3)
-    v = (math.floor(x / q) if down else math.ceil(x / q)) * q
-    return f"{v:.4g}"
+    """``x`` to four significant digits, rounded inwards (:func:`bsrflow._bounds.printed_bound`)."""
+    return printed_bound(x, down)
 
 
 def _edge(fits, good, bad, integer: bool = False):

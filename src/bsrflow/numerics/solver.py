@@ -12,12 +12,12 @@ Happy path::
 
 from __future__ import annotations
 
-import math
 import time as _time
 from dataclasses import dataclass, field, asdict
 
 import numpy as np
 
+from .._bounds import printed_bound
 from ..physics.interaction import fast_integral_for
 from ..physics.model import BSRModel, jit_user
 from .compiled import STATUS, direct_integral, make_core
@@ -208,14 +208,6 @@ def _require_number(name, value):
         raise ValueError(f"{name} = {value!r} must be a number, not {type(value).__name__}")
 
 
-def _printed(x: float, up: bool) -> str:
-    """``x`` > 0 to four significant digits, rounded up (``up``) or down: a bound printed inside
-    its range."""
-    q = 10.0 ** (math.floor(math.log10(x)) - 3)
-    v = (math.ceil(x / q * (1 - 1e-12)) if up else math.floor(x / q * (1 + 1e-12))) * q
-    return f"{v:.4g}"
-
-
 def save_schedule(t_start, t_end, save_every=None, save_times=None, save_every_max=np.inf) -> np.ndarray:
     """Sorted output times [s] in [t_start, t_end]: ``save_times`` if given, else every
     ``save_every`` from t_start plus t_end, else just the two ends.  At most
@@ -228,8 +220,8 @@ def save_schedule(t_start, t_end, save_every=None, save_times=None, save_every_m
             _require_number("save_every", save_every)
             span = t_end - t_start
             least = span / MAX_SNAPSHOTS
-            rng = (f"[{_printed(least, up=True)}, "                 # (the printed ends are accepted)
-                   f"{'inf)' if save_every_max == np.inf else _printed(save_every_max, up=False) + ']'} s")
+            hi = "inf)" if save_every_max == np.inf else printed_bound(save_every_max, down=True, slack=1e-8) + "]"
+            rng = f"[{printed_bound(least, down=False, slack=1e-8)}, {hi} s"       # (the printed ends are accepted)
             if not (np.isfinite(save_every) and save_every > 0):
                 raise ValueError(f"save_every = {save_every!r} is outside the valid range {rng} (at most "
                                  f"{MAX_SNAPSHOTS} snapshots)")

@@ -60,6 +60,7 @@ from dataclasses import asdict, dataclass
 import numba
 import numpy as np
 
+from .._bounds import printed_bound
 from .packing_bed import MAX_STATIC_OVERLAP, MAX_STEPS      # the packing bed's bounds, the same here
 
 __all__ = ["BedSetup", "g0_cs", "kinetic_pressure", "bulk_viscosity", "shear_viscosity", "pressure_and_viscosity",
@@ -270,9 +271,9 @@ class BedSetup:
             deep = f"the bed would be {self.rest_height / self.diameter:.3g} d deep (at least 1 d: a thinner bed is not a continuum)"
             if n_min > 10_000_000:       # no number of spheres fills this box: the box is too wide
                 side_max = self.side * math.sqrt(self.rest_height / self.diameter)
-                q = 10.0 ** (math.floor(math.log10(side_max)) - 3)             # printed rounded down: accepted
                 raise ValueError(f"side = {self.side!r} m is outside the valid range at these settings, (0, "
-                                 f"{math.floor(side_max / q * (1 - 1e-9)) * q:.4g}] m (with n_spheres = {self.n_spheres!r}; even 1e7 "
+                                 f"{printed_bound(side_max * (1 - 1e-9), down=True)}] m (with n_spheres = "
+                                 f"{self.n_spheres!r}; even 1e7 "
                                  f"spheres, the most, need a side of at most {math.sqrt(1e7 / n_min) * self.side:.3g} "
                                  f"m): {deep}")
             raise ValueError(f"n_spheres = {self.n_spheres!r} is outside the valid range at these settings, "
@@ -491,9 +492,9 @@ class EulerianBedSetup(BedSetup):
         need = tallest + self.diameter                                 # a diameter of room below the lid
         if top < need - 1e-12 * need:
             lowest = math.ceil(need / dz - 1e-9) * dz
-            q = 10.0 ** (math.floor(math.log10(lowest)) - 3)                   # printed rounded up: accepted
             raise ValueError(f"output_height = {self.output_height!r} is outside the valid range at these settings, "
-                             f"[{math.ceil(lowest / q - 1e-6) * q:.4g}, 100] m: the grid of whole cells below it would end at {top:.4g} m, and "
+                             f"[{printed_bound(lowest, down=False, slack=1e-6)}, 100] m: the grid of whole cells "
+                             f"below it would end at {top:.4g} m, and "
                              f"the bed at rest ({tallest:.4g} m high) needs a diameter of room below the grid's lid "
                              "(a bed reaching the lid stops the run)")
 
