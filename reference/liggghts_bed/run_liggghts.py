@@ -14,6 +14,7 @@ reduces its output into small CSV/JSON files next to this script:
   python reference/liggghts_bed/run_liggghts.py --gamma 1.5 2 2.5 3 3.5 4 4.5 5 5.5 6 6.5 7 7.5 8 --floor-restitution 1
   python reference/liggghts_bed/run_liggghts.py --settle --n 10000 --lateral 29
   python reference/liggghts_bed/run_liggghts.py --gamma 3 --n 10000 --lateral 29
+  python reference/liggghts_bed/run_liggghts.py --gamma 3 --floor-power   # + the floor contacts' loss
   python reference/liggghts_bed/run_liggghts.py --summary          # flight_vs_gamma.csv
 
 Big files (dumps, restarts, logs) go to reference/liggghts_bed/work/ (not committed).
@@ -53,6 +54,7 @@ FORCE_EVERY = 10                # floor force / overlap sampling [steps]
 SEED = 12345                    # the random insertion of the settled bed (--seed: another packing)
 DEFAULT_SEED = SEED
 E_FLOOR = None        # restitution of the sphere-floor contacts when it differs from E_REST (--floor-restitution)
+FLOOR_POWER = False   # also measure the floor contacts' energy budget (--floor-power)
 
 MASS = RHO * math.pi * D ** 3 / 6.0
 VOL = math.pi * D ** 3 / 6.0
@@ -669,7 +671,7 @@ neigh_modify    delay 0
 {deck_contact(model, mu)}
 timestep        {dt:.12g}
 fix floor all mesh/surface/stress file floor.stl type 2 reference_point 0 0 0
-fix wall all wall/gran {wall_fix(model, mu)}
+fix wall all wall/gran {wall_fix(model, mu)}{" store_force yes" if FLOOR_POWER else ""}
 # floor z = A sin(omega t), t = 0 at the start of this run
 fix shake all move/mesh mesh floor wiggle amplitude 0 0 {amp:.12g} period {PERIOD:.12g}
 fix grav all gravity {G} vector 0 0 -1
@@ -687,7 +689,7 @@ variable dpp equal c_mpp
 variable dpw equal c_mpw
 variable na equal atoms
 fix pr all print {FORCE_EVERY} "${{st}} ${{zf}} ${{fz}} ${{zc}} ${{dpp}} ${{dpw}} ${{na}}" file floor.txt screen no title "# step z_floor_mesh F_z_on_floor com_z max_overlap_pair max_overlap_wall atoms"
-dump da all custom {ndump} bed.dump id x y z vx vy vz
+{floor_power_deck(amp, dt) if FLOOR_POWER else ""}dump da all custom {ndump} bed.dump id x y z vx vy vz
 dump_modify da sort id format "%d %.8g %.8g %.8g %.6g %.6g %.6g"
 thermo_style    custom step time atoms f_floor[3]
 thermo          {SAMPLES_PER_CYCLE * ndump}
@@ -704,10 +706,128 @@ run {nsteps}
             "loop_time_s": loop_time(wd / "log.vibrate")}
     if E_FLOOR is not None:
         meta["floor_restitution"] = E_FLOOR
+    if FLOOR_POWER:
+        meta["floor_power"] = True
     if SEED != DEFAULT_SEED:
         meta["seed"] = SEED
     (wd / "meta.json").write_text(json.dumps(meta, indent=2))
     return postprocess(name)
+
+
+def floor_power_deck(amp: float, dt: float) -> str:
+    """Deck lines of --floor-power: at every step, into floor_power.txt [W], the power the floor
+    gives its contacts, F_z v_floor (F_z the floor's force on the spheres, v_floor =
+    A omega cos(omega t)), and the power those contacts give the spheres, sum_i F_z,i v_z,i (F_z,i
+    each sphere's force from the floor, fix wall/gran's store_force).  Their difference is the rate
+    of the floor contacts' elastic energy plus their dissipation.  (fix print, which tests the
+    step number itself: a fix ave/time defined before the restart's reset_timestep would keep
+    the restart's step numbers for its schedule.)"""
+    return f"""variable vfl equal {amp * OMEGA:.12g}*cos({OMEGA:.12g}*step*{dt:.12g})
+variable pfl equal -f_floor[3]*v_vfl
+variable pat atom f_force_wall[3]*vz
+compute psph all reduce sum v_pat
+variable psp equal c_psph
+fix fpw all print 1 "${{st}} ${{pfl}} ${{psp}}" file floor_power.txt screen no title "# step floor_power_W power_on_spheres_W"
+"""
+
+
+def write_floor_power(out: Path, wd: Path, meta: dict) -> dict:
+    """results/RUN/floor_power_per_cycle.csv from work/RUN/floor_power.txt (--floor-power).
+
+    Per window of one period, from the phase where the cycles' mean floor force is smallest (the
+    bed in flight, the floor contacts empty), to the same phase a period later: the floor's work
+    on its contacts W_floor = int F_z v_floor dt, the contacts' work on the spheres
+    W_spheres = int sum_i F_z,i v_z,i dt, and their difference, the energy the sphere-floor
+    contacts dissipated (their elastic energy is the same, near zero, at the window's two ends;
+    the force there is written) [mJ].  Returns the measured windows' means."""
+    dt = meta["dt_s"]
+    a = read_columns(wd / "floor_power.txt")
+    t = a[:, 0] * dt
+    p_floor, p_spheres = a[:, 1], a[:, 2]
+    f = read_columns(wd / "floor.txt")
+    tf, fz = f[:, 0] * dt, -f[:, 2]
+    weight = MASS * f[0, 6] * G
+    ncyc = meta["cycles_startup"] + meta["cycles_measured"]
+    bins = 40
+    ph = np.floor((tf / PERIOD % 1.0) * bins).astype(int)
+    mean_f = np.array([fz[(ph == b) & (tf >= meta["cycles_startup"] * PERIOD)].mean() for b in range(bins)])
+    phase0 = (int(np.argmin(mean_f)) + 0.5) / bins
+    h = dt                          # a row per step
+    rows = []
+    for c in range(ncyc - 1):
+        t0, t1 = (c + phase0) * PERIOD, (c + 1 + phase0) * PERIOD
+        m = (t > t0) & (t <= t1)
+        wf, ws = float(np.sum(p_floor[m]) * h), float(np.sum(p_spheres[m]) * h)
+        f0 = float(np.interp(t0, tf, fz)) / weight
+        f1 = float(np.interp(t1, tf, fz)) / weight
+        rows.append((c, c >= meta["cycles_startup"], wf, ws, wf - ws, f0, f1))
+    with open(out / "floor_power_per_cycle.csv", "w") as fo:
+        fo.write(f"# the sphere-floor contacts' energy budget per window [cycle + {phase0:.4f}, cycle + 1 + "
+                 f"{phase0:.4f}) periods (the phase of the smallest mean floor force); mJ\n")
+        fo.write("# floor_work: int F_z v_floor dt; work_on_spheres: int sum_i F_z,i v_z,i dt; "
+                 "floor_contact_loss: their difference\n")
+        fo.write("cycle,measured,floor_work_mJ,work_on_spheres_mJ,floor_contact_loss_mJ,"
+                 "force_start_over_weight,force_end_over_weight\n")
+        for r in rows:
+            fo.write(f"{r[0]},{int(r[1])},{r[2]*1e3:.5f},{r[3]*1e3:.5f},{r[4]*1e3:.5f},{r[5]:.4f},{r[6]:.4f}\n")
+    meas = [r for r in rows if r[1]]
+    closure = floor_loss_by_phase(out, wd, meta, t, p_floor - p_spheres)
+    return {"floor_power_window_phase": phase0, **closure,
+            "floor_work_per_cycle_mJ": float(np.mean([r[2] for r in meas]) * 1e3),
+            "floor_contact_loss_per_cycle_mJ": float(np.mean([r[4] for r in meas]) * 1e3)}
+
+
+def floor_loss_by_phase(out: Path, wd: Path, meta: dict, t: np.ndarray, loss_rate: np.ndarray) -> dict:
+    """results/RUN/floor_loss_by_phase.csv: against the phase of the cycle (40 bins; the measured
+    cycles but the first and the last, whose windows are incomplete), the sphere-floor contacts'
+    measured loss rate [W] (floor_power.txt) beside the continuum's closure for it evaluated on
+    LIGGGHTS's own state at the floor, (1 - e) p sqrt(2 theta / pi) A with p = rho_s phi theta
+    [1 + 2 (1 + e) phi g0] (Carnahan-Starling g0; bsrflow.physics.granular_bed.wall_loss), phi the
+    coarse-grained solid fraction at z = d/2 above the floor (cg_profile) and theta the bottom
+    layer's (sphere centres below d) velocity variance about its mean, isotropic (mean of the three
+    components) and vertical, from the dump frames (every 1/40 cycle).  Returns the per-cycle sums
+    [mJ] of the same cycles."""
+    dt, amp, lx = meta["dt_s"], meta["amplitude_m"], meta["lx_m"]
+    e = meta.get("floor_restitution", meta.get("restitution", E_REST))
+    bins = 40
+    n0 = meta["cycles_startup"] + 1
+    n1 = meta["cycles_startup"] + meta["cycles_measured"] - 1
+    zg = np.array([0.5 * D])
+    per_bin = [[] for _ in range(bins)]
+    for step, _, x in read_dump(wd / "bed.dump"):
+        tf = step * dt
+        if not (n0 * PERIOD <= tf < n1 * PERIOD):
+            continue
+        z = x[:, 2] - amp * math.sin(OMEGA * tf)
+        bottom = z < D
+        phi = float(cg_profile(z, zg, lx)[0])
+        vb = x[bottom, 3:6]
+        th = float(np.mean(np.var(vb, axis=0))) if len(vb) > 1 else 0.0
+        thz = float(np.var(vb[:, 2])) if len(vb) > 1 else 0.0
+        pc = min(phi, 0.95)
+        g0 = (1.0 - 0.5 * pc) / (1.0 - pc) ** 3
+
+        def closure(theta):
+            p = RHO * phi * theta * (1.0 + 2.0 * (1.0 + e) * phi * g0)
+            return (1.0 - e) * p * math.sqrt(2.0 * theta / math.pi) * lx * lx
+        b = int(round((tf / PERIOD % 1.0) * bins)) % bins     # frames sit at the bins' left edges
+        per_bin[b].append((phi, th, thz, closure(th), closure(thz), int(bottom.sum())))
+    m = (t >= n0 * PERIOD) & (t < n1 * PERIOD)
+    edges = np.floor((t[m] / PERIOD % 1.0) * bins).astype(int)
+    measured = np.array([loss_rate[m][edges == b].mean() for b in range(bins)])
+    frames = np.array([np.mean(v, axis=0) for v in per_bin])
+    with open(out / "floor_loss_by_phase.csv", "w") as fo:
+        fo.write(f"# cycles {n0}-{n1 - 1}: the sphere-floor contacts' measured loss rate (mean over the phase bin) and "
+                 f"the continuum's wall-loss closure on LIGGGHTS's state at the floor (frames at the bin's start), W\n")
+        fo.write("phase,measured_loss_W,closure_loss_W,closure_loss_vertical_W,phi_at_half_d,theta_bottom_m2_s2,"
+                 "theta_z_bottom_m2_s2,spheres_below_d\n")
+        for b in range(bins):
+            f = frames[b]
+            fo.write(f"{b / bins:.4f},{measured[b]:.6g},{f[3]:.6g},{f[4]:.6g},{f[0]:.4f},{f[1]:.5g},{f[2]:.5g},"
+                     f"{f[5]:.1f}\n")
+    return {"floor_loss_measured_per_cycle_mJ": float(measured.mean() * PERIOD * 1e3),
+            "floor_loss_closure_on_dem_state_per_cycle_mJ": float(frames[:, 3].mean() * PERIOD * 1e3),
+            "floor_loss_closure_vertical_on_dem_state_per_cycle_mJ": float(frames[:, 4].mean() * PERIOD * 1e3)}
 
 
 def write_settled_data(st: Path, path: Path, lx: float, n: int) -> None:
@@ -1136,6 +1256,8 @@ def postprocess(name: str) -> dict:
         "top99_rel_max_over_d": float(tr[tm, 6].max() / D),
         **alt,
     })
+    if meta.get("floor_power"):
+        summ.update(write_floor_power(out, wd, meta))
     (out / "summary.json").write_text(json.dumps(summ, indent=2))
     return summ
 
@@ -1328,7 +1450,7 @@ def _refresh_runs(ap, option: str, names, needed: str) -> list:
 
 
 def main(argv=None):
-    global E_REST, E_FLOOR, WORK, RESULTS, OUT, SEED
+    global E_REST, E_FLOOR, FLOOR_POWER, WORK, RESULTS, OUT, SEED
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--check", action="store_true", help="single-sphere / two-sphere contact checks")
     ap.add_argument("--settle", action="store_true", help="pour and settle the bed")
@@ -1348,6 +1470,9 @@ def main(argv=None):
     ap.add_argument("--floor-restitution", type=float, metavar="E",
                     help="e of the sphere-floor contacts only (default: --restitution's); the runs' folders "
                          "end in _ew<E>")
+    ap.add_argument("--floor-power", action="store_true",
+                    help="with --gamma: also measure the sphere-floor contacts' energy budget (LIGGGHTS's "
+                         "store_force; the run's other files are unchanged): results/RUN/floor_power_per_cycle.csv")
     ap.add_argument("--post", metavar="RUN", help="re-run the post-processing of work/RUN")
     ap.add_argument("--seed", type=int, default=DEFAULT_SEED, metavar="S",
                     help=f"seed of the random insertion before settling (default {DEFAULT_SEED}); another seed "
@@ -1377,6 +1502,8 @@ def main(argv=None):
     if a.floor_restitution is not None and (a.check or a.settle or a.settle_post):
         ap.error("argument --floor-restitution: only for the vibration runs (--gamma); --check, --settle and "
                  "--settle-post keep the contact law's e at the floor")
+    if a.floor_power and not a.gamma:
+        ap.error("argument --floor-power: only with --gamma (it measures a vibration run)")
     if not 0 <= a.seed < 2 ** 32:
         ap.error(f"argument --seed: {a.seed!r} is outside the valid range [0, 2^32)")
     if a.seed != DEFAULT_SEED and (a.check or a.post or a.thresholds or a.structure or a.summary
@@ -1385,6 +1512,7 @@ def main(argv=None):
                  "or use no packing)")
     E_REST = a.restitution
     E_FLOOR = a.floor_restitution
+    FLOOR_POWER = a.floor_power
     SEED = a.seed
     if a.root:
         OUT = Path(a.root).resolve()

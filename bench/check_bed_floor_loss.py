@@ -1,0 +1,134 @@
+"""How much the floor's contacts dissipate: LIGGGHTS against the continuum at Γ = 3 (issue #19).
+
+    python bench/check_bed_floor_loss.py [--json PATH]
+
+LIGGGHTS's side comes from the committed reference
+(``reference/liggghts_bed/results/gamma_3.00_N2000_L13d/``, written by ``run_liggghts.py --gamma 3
+--floor-power``): per window of one period, the floor's work on its contacts ∫F v_floor dt and the
+energy those sphere–floor contacts dissipated (the floor's work minus the contacts' work on the
+spheres, ``floor_power_per_cycle.csv``), and the continuum's wall-loss closure evaluated on
+LIGGGHTS's own state at the floor (``floor_loss_by_phase.csv``).  The continuum's side is the
+reference bed (:class:`bsrflow.physics.granular_bed.BedSetup` defaults, Γ = 3) on the Lagrangian
+cells, started as ``compare-bed`` starts it and stepped here one step at a time with the package's
+compiled step (:func:`bsrflow.numerics.bed_lagrangian.bed_step`, the same steps as a run) so as to
+sum, over the same windows, the floor's work R A v_floor Δt and the floor's collisional loss, the
+only loss the continuum puts at the floor ((1 − e_w) p √(2θ/π) A,
+:func:`bsrflow.physics.granular_bed.wall_loss`).  Energies in mJ per cycle; about 10 s.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from _args import Parser, output_json, repo_path, write_json
+from bsrflow.numerics.bed_lagrangian import GranularBedColumn, _compile_bed, bed_step
+from bsrflow.physics.granular_bed import BedSetup
+
+RUN = "reference/liggghts_bed/results/gamma_3.00_N2000_L13d"
+
+
+def read_csv(path: str) -> dict:
+    """The columns of a reference CSV (lines starting with # are comments; the first other line
+    names the columns) as float arrays."""
+    with open(path) as fh:
+        lines = [ln.strip() for ln in fh if ln.strip() and not ln.startswith("#")]
+    names = lines[0].split(",")
+    data = np.array([[float(v) for v in ln.split(",")] for ln in lines[1:]])
+    return {k: data[:, i] for i, k in enumerate(names)}
+
+
+def dem_side(folder: str) -> dict:
+    """LIGGGHTS's floor budget from the committed CSVs (module docstring)."""
+    path = f"{folder}/floor_power_per_cycle.csv"
+    with open(path) as fh:
+        head = fh.readline()
+    phase = float(head.split("[cycle + ")[1].split(",")[0])
+    a = read_csv(path)
+    m = a["measured"] == 1
+    b = read_csv(f"{folder}/floor_loss_by_phase.csv")
+    period = 1.0 / 20.0
+    return {"window_phase": phase, "cycles": [int(c) for c in a["cycle"][m]],
+            "floor_work_mJ": [float(v) for v in a["floor_work_mJ"][m]],
+            "floor_contact_loss_mJ": [float(v) for v in a["floor_contact_loss_mJ"][m]],
+            "closure_on_dem_state_per_cycle_mJ": float(np.mean(b["closure_loss_W"]) * period * 1e3),
+            "closure_vertical_on_dem_state_per_cycle_mJ": float(np.mean(b["closure_loss_vertical_W"]) * period * 1e3),
+            "measured_by_phase_per_cycle_mJ": float(np.mean(b["measured_loss_W"]) * period * 1e3)}
+
+
+def continuum_side(phase: float) -> dict:
+    """The continuum's floor work and floor loss per window [cycle + phase, cycle + 1 + phase)."""
+    _compile_bed()
+    s = BedSetup(gamma=3.0)
+    bed = GranularBedColumn(s)
+    bed.apply_velocity_jump(s.amplitude * s.omega)
+    n = s.n_cells
+    sig, pq = np.empty(n), np.empty(n)
+    flux, cond = np.empty(n + 1), np.empty(n + 1)
+    mu, rho_s, d, e, phi_c, k1, k2, g, amp, w = bed._args
+    period, area = 1.0 / s.frequency, s.area
+    ncyc = s.cycles
+    work, loss = np.zeros(ncyc), np.zeros(ncyc)
+    edge_force = np.zeros(ncyc)          # the floor reaction at each window's start [N]
+    t, dt, steps = 0.0, float(bed.dt_next[0]), 0
+    wall = time.perf_counter()
+    while t < ncyc * period:
+        gl = g - amp * w * w * math.sin(w * t)
+        c_before = math.floor(t / period - phase)
+        r, status, bound = bed_step(bed.zf, bed.vf, bed.th, bed.hist, sig, pq, flux, cond, dt, gl, mu, rho_s, d,
+                                    e, phi_c, k1, k2, s.cfl, bed.c, s.dissipation_restitution,
+                                    s.floor_dissipation_restitution)
+        if status:
+            raise SystemExit(f"check_bed_floor_loss: a cell's thickness reached 0 at t = {t:.6g} s")
+        t += dt
+        c = math.floor(t / period - phase)
+        if 0 <= c < ncyc:
+            if c != c_before:
+                edge_force[c] = r * area
+            work[c] += r * area * amp * w * math.cos(w * t) * dt
+            loss[c] += -flux[0] * area * dt
+        dt = bound
+        steps += 1
+    first = 3                               # the reference's start-up cycles
+    cyc = list(range(first, ncyc - 1))      # whole windows only
+    return {"cycles": cyc, "floor_work_mJ": [float(work[c] * 1e3) for c in cyc],
+            "floor_loss_mJ": [float(loss[c] * 1e3) for c in cyc],
+            "reaction_at_window_start_over_weight": [float(edge_force[c] / (s.mass_per_area * area * s.gravity))
+                                                     for c in cyc],
+            "steps": steps, "wall_time_s": time.perf_counter() - wall}
+
+
+def main(argv=None):
+    ap = Parser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--json", type=output_json, metavar="PATH", help="write the numbers as JSON")
+    a = ap.parse_args(argv)
+    dem = dem_side(repo_path(RUN))
+    cont = continuum_side(dem["window_phase"])
+    print(f"windows [cycle + {dem['window_phase']:.4f}, cycle + 1 + {dem['window_phase']:.4f}) periods, mJ")
+    print("cycle  LIGGGHTS: floor work  floor-contact loss   continuum: floor work  floor loss")
+    for c in dem["cycles"]:
+        i = dem["cycles"].index(c)
+        j = cont["cycles"].index(c) if c in cont["cycles"] else None
+        cw = f"{cont['floor_work_mJ'][j]:10.2f}  {cont['floor_loss_mJ'][j]:10.3f}" if j is not None else ""
+        print(f"{c:5d}  {dem['floor_work_mJ'][i]:19.2f}  {dem['floor_contact_loss_mJ'][i]:18.3f}   {cw}")
+    mean = {"dem_floor_work_mJ": float(np.mean(dem["floor_work_mJ"][1:])),
+            "dem_floor_contact_loss_mJ": float(np.mean(dem["floor_contact_loss_mJ"][1:])),
+            "continuum_floor_work_mJ": float(np.mean(cont["floor_work_mJ"][1:])),
+            "continuum_floor_loss_mJ": float(np.mean(cont["floor_loss_mJ"][1:]))}
+    print("means over cycles {}-{}: LIGGGHTS {:.2f} / {:.3f} mJ ({:.1f} % of the floor's work), continuum {:.2f} / {:.3f} mJ "
+          "({:.1f} %)".format(dem["cycles"][1], dem["cycles"][-1], mean["dem_floor_work_mJ"],
+                              mean["dem_floor_contact_loss_mJ"],
+                              100 * mean["dem_floor_contact_loss_mJ"] / mean["dem_floor_work_mJ"],
+                              mean["continuum_floor_work_mJ"], mean["continuum_floor_loss_mJ"],
+                              100 * mean["continuum_floor_loss_mJ"] / mean["continuum_floor_work_mJ"]))
+    print(f"the continuum's wall-loss closure on LIGGGHTS's own floor state: {dem['closure_on_dem_state_per_cycle_mJ']:.3f} mJ "
+          f"per cycle (vertical theta: {dem['closure_vertical_on_dem_state_per_cycle_mJ']:.3f}) against the "
+          f"measured {dem['measured_by_phase_per_cycle_mJ']:.3f}")
+    if a.json:
+        write_json(a.json, {"gamma": 3.0, "liggghts": dem, "continuum": cont, "means": mean})
+
+
+if __name__ == "__main__":
+    main()
