@@ -781,14 +781,15 @@ def floor_loss_by_phase(out: Path, wd: Path, meta: dict, t: np.ndarray, loss_rat
     """results/RUN/floor_loss_by_phase.csv: against the phase of the cycle (40 bins; the measured
     cycles but the first and the last, whose windows are incomplete), the sphere-floor contacts'
     measured loss rate [W] (floor_power.txt) beside the continuum's closure for it evaluated on
-    LIGGGHTS's own state at the floor, (1 - e) p sqrt(2 theta / pi) A with p = rho_s phi theta
+    LIGGGHTS's own state at the floor, (1 - e_w) p sqrt(2 theta / pi) A with p = rho_s phi theta
     [1 + 2 (1 + e) phi g0] (Carnahan-Starling g0; bsrflow.physics.granular_bed.wall_loss), phi the
     coarse-grained solid fraction at z = d/2 above the floor (cg_profile) and theta the bottom
     layer's (sphere centres below d) velocity variance about its mean, isotropic (mean of the three
     components) and vertical, from the dump frames (every 1/40 cycle).  Returns the per-cycle sums
     [mJ] of the same cycles."""
     dt, amp, lx = meta["dt_s"], meta["amplitude_m"], meta["lx_m"]
-    e = meta.get("floor_restitution", meta.get("restitution", E_REST))
+    e = meta.get("restitution", E_REST)                 # the spheres' (the kinetic pressure's)
+    e_w = meta.get("floor_restitution", e)              # the floor's (the loss's)
     bins = 40
     n0 = meta["cycles_startup"] + 1
     n1 = meta["cycles_startup"] + meta["cycles_measured"] - 1
@@ -809,7 +810,7 @@ def floor_loss_by_phase(out: Path, wd: Path, meta: dict, t: np.ndarray, loss_rat
 
         def closure(theta):
             p = RHO * phi * theta * (1.0 + 2.0 * (1.0 + e) * phi * g0)
-            return (1.0 - e) * p * math.sqrt(2.0 * theta / math.pi) * lx * lx
+            return (1.0 - e_w) * p * math.sqrt(2.0 * theta / math.pi) * lx * lx
         b = int(round((tf / PERIOD % 1.0) * bins)) % bins     # frames sit at the bins' left edges
         per_bin[b].append((phi, th, thz, closure(th), closure(thz), int(bottom.sum())))
     m = (t >= n0 * PERIOD) & (t < n1 * PERIOD)
