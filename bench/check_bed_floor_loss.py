@@ -1,19 +1,21 @@
-"""How much the floor's contacts dissipate: LIGGGHTS against the continuum at Γ = 3 (issue #19).
+"""How much the floor's contacts dissipate: LIGGGHTS against the continuum (issue #19).
 
-    python bench/check_bed_floor_loss.py [--json PATH]
+    python bench/check_bed_floor_loss.py [--gamma 2 3 4.5] [--json PATH]
 
 LIGGGHTS's side comes from the committed reference
-(``reference/liggghts_bed/results/gamma_3.00_N2000_L13d/``, written by ``run_liggghts.py --gamma 3
---floor-power``): per window of one period, the floor's work on its contacts ∫F v_floor dt and the
+(``reference/liggghts_bed/results/gamma_<Γ>_N2000_L13d/``, written by ``run_liggghts.py --gamma 2 3
+4.5 --floor-power``): per window of one period, the floor's work on its contacts ∫F v_floor dt and the
 energy those sphere–floor contacts dissipated (the floor's work minus the contacts' work on the
-spheres, ``floor_power_per_cycle.csv``), and the continuum's wall-loss closure evaluated on
-LIGGGHTS's own state at the floor (``floor_loss_by_phase.csv``).  The continuum's side is the
-reference bed (:class:`bsrflow.physics.granular_bed.BedSetup` defaults, Γ = 3) on the Lagrangian
+spheres, ``floor_power_per_cycle.csv``), the continuum's wall-loss closure evaluated on
+LIGGGHTS's own state at the floor (``floor_loss_by_phase.csv``), and the hard-sphere contact
+theorem's loss with the whole floor force instead of the kinetic pressure,
+(1 − e_w) F √(2θ_z/π) (F the committed force series' mean per phase bin, θ_z the bottom layer's).  The continuum's side is the
+reference bed (:class:`bsrflow.physics.granular_bed.BedSetup` defaults at that Γ) on the Lagrangian
 cells, started as ``compare-bed`` starts it and stepped here one step at a time with the package's
 compiled step (:func:`bsrflow.numerics.bed_lagrangian.bed_step`, the same steps as a run) so as to
 sum, over the same windows, the floor's work R A v_floor Δt and the floor's collisional loss, the
 only loss the continuum puts at the floor ((1 − e_w) p √(2θ/π) A,
-:func:`bsrflow.physics.granular_bed.wall_loss`).  Energies in mJ per cycle; about 10 s.
+:func:`bsrflow.physics.granular_bed.wall_loss`).  Energies in mJ per cycle; about 5 s per Γ.
 """
 
 from __future__ import annotations
@@ -27,7 +29,12 @@ from _args import Parser, output_json, repo_path, write_json
 from bsrflow.numerics.bed_lagrangian import GranularBedColumn, _compile_bed, bed_step
 from bsrflow.physics.granular_bed import BedSetup
 
-RUN = "reference/liggghts_bed/results/gamma_3.00_N2000_L13d"
+GAMMAS = (2.0, 3.0, 4.5)
+"""The Γ of the committed --floor-power runs."""
+
+
+def run_folder(gamma: float) -> str:
+    return f"reference/liggghts_bed/results/gamma_{gamma:.2f}_N2000_L13d"
 
 
 def read_csv(path: str) -> dict:
@@ -50,7 +57,18 @@ def dem_side(folder: str) -> dict:
     m = a["measured"] == 1
     b = read_csv(f"{folder}/floor_loss_by_phase.csv")
     period = 1.0 / 20.0
-    return {"window_phase": phase, "cycles": [int(c) for c in a["cycle"][m]],
+    # the hard-sphere contact theorem with the whole floor force: (1 - e_w) F sqrt(2 theta_z / pi), F the
+    # committed force series' mean in each phase bin over the same cycles (4 to 9), theta_z the bottom layer's
+    f = read_csv(f"{folder}/floor_force.csv")
+    tf, force = f["t_s"], f["F_floor_N"]
+    bins = len(b["phase"])
+    late = (tf >= 4 * period) & (tf < 10 * period)
+    k = np.floor((tf[late] / period % 1.0) * bins).astype(int)
+    force_by_phase = np.array([force[late][k == j].mean() for j in range(bins)])
+    contact = (1.0 - 0.9) * force_by_phase * np.sqrt(2.0 * b["theta_z_bottom_m2_s2"] / np.pi)
+    return {"window_phase": phase,
+            "contact_theorem_with_floor_force_per_cycle_mJ": float(np.mean(contact) * period * 1e3),
+            "cycles": [int(c) for c in a["cycle"][m]],
             "floor_work_mJ": [float(v) for v in a["floor_work_mJ"][m]],
             "floor_contact_loss_mJ": [float(v) for v in a["floor_contact_loss_mJ"][m]],
             "closure_on_dem_state_per_cycle_mJ": float(np.mean(b["closure_loss_W"]) * period * 1e3),
@@ -58,10 +76,10 @@ def dem_side(folder: str) -> dict:
             "measured_by_phase_per_cycle_mJ": float(np.mean(b["measured_loss_W"]) * period * 1e3)}
 
 
-def continuum_side(phase: float) -> dict:
+def continuum_side(gamma: float, phase: float) -> dict:
     """The continuum's floor work and floor loss per window [cycle + phase, cycle + 1 + phase)."""
     _compile_bed()
-    s = BedSetup(gamma=3.0)
+    s = BedSetup(gamma=gamma)
     bed = GranularBedColumn(s)
     bed.apply_velocity_jump(s.amplitude * s.omega)
     n = s.n_cells
@@ -100,16 +118,14 @@ def continuum_side(phase: float) -> dict:
             "steps": steps, "wall_time_s": time.perf_counter() - wall}
 
 
-def main(argv=None):
-    ap = Parser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", type=output_json, metavar="PATH", help="write the numbers as JSON")
-    a = ap.parse_args(argv)
-    dem = dem_side(repo_path(RUN))
-    cont = continuum_side(dem["window_phase"])
-    print(f"windows [cycle + {dem['window_phase']:.4f}, cycle + 1 + {dem['window_phase']:.4f}) periods, mJ")
+def compare(gamma: float) -> dict:
+    """Both sides at one Γ, printed (module docstring)."""
+    dem = dem_side(repo_path(run_folder(gamma)))
+    cont = continuum_side(gamma, dem["window_phase"])
+    print(f"Γ = {gamma:g}: windows [cycle + {dem['window_phase']:.4f}, cycle + 1 + {dem['window_phase']:.4f}) "
+          "periods, mJ")
     print("cycle  LIGGGHTS: floor work  floor-contact loss   continuum: floor work  floor loss")
-    for c in dem["cycles"]:
-        i = dem["cycles"].index(c)
+    for i, c in enumerate(dem["cycles"]):
         j = cont["cycles"].index(c) if c in cont["cycles"] else None
         cw = f"{cont['floor_work_mJ'][j]:10.2f}  {cont['floor_loss_mJ'][j]:10.3f}" if j is not None else ""
         print(f"{c:5d}  {dem['floor_work_mJ'][i]:19.2f}  {dem['floor_contact_loss_mJ'][i]:18.3f}   {cw}")
@@ -117,17 +133,29 @@ def main(argv=None):
             "dem_floor_contact_loss_mJ": float(np.mean(dem["floor_contact_loss_mJ"][1:])),
             "continuum_floor_work_mJ": float(np.mean(cont["floor_work_mJ"][1:])),
             "continuum_floor_loss_mJ": float(np.mean(cont["floor_loss_mJ"][1:]))}
-    print("means over cycles {}-{}: LIGGGHTS {:.2f} / {:.3f} mJ ({:.1f} % of the floor's work), continuum {:.2f} / {:.3f} mJ "
-          "({:.1f} %)".format(dem["cycles"][1], dem["cycles"][-1], mean["dem_floor_work_mJ"],
-                              mean["dem_floor_contact_loss_mJ"],
-                              100 * mean["dem_floor_contact_loss_mJ"] / mean["dem_floor_work_mJ"],
-                              mean["continuum_floor_work_mJ"], mean["continuum_floor_loss_mJ"],
-                              100 * mean["continuum_floor_loss_mJ"] / mean["continuum_floor_work_mJ"]))
-    print(f"the continuum's wall-loss closure on LIGGGHTS's own floor state: {dem['closure_on_dem_state_per_cycle_mJ']:.3f} mJ "
-          f"per cycle (vertical theta: {dem['closure_vertical_on_dem_state_per_cycle_mJ']:.3f}) against the "
-          f"measured {dem['measured_by_phase_per_cycle_mJ']:.3f}")
+    print("means over cycles {}-{}: LIGGGHTS {:.2f} / {:.3f} mJ ({:.1f} % of the floor's work), continuum {:.2f} / "
+          "{:.3f} mJ ({:.1f} %)".format(dem["cycles"][1], dem["cycles"][-1], mean["dem_floor_work_mJ"],
+                                        mean["dem_floor_contact_loss_mJ"],
+                                        100 * mean["dem_floor_contact_loss_mJ"] / mean["dem_floor_work_mJ"],
+                                        mean["continuum_floor_work_mJ"], mean["continuum_floor_loss_mJ"],
+                                        100 * mean["continuum_floor_loss_mJ"] / mean["continuum_floor_work_mJ"]))
+    print(f"the continuum's wall-loss closure on LIGGGHTS's own floor state: "
+          f"{dem['closure_on_dem_state_per_cycle_mJ']:.3f} mJ per cycle (vertical theta: "
+          f"{dem['closure_vertical_on_dem_state_per_cycle_mJ']:.3f}) against the measured "
+          f"{dem['measured_by_phase_per_cycle_mJ']:.3f}; the contact theorem with the whole floor force and the "
+          f"bottom layer's theta_z: {dem['contact_theorem_with_floor_force_per_cycle_mJ']:.3f}\n")
+    return {"gamma": gamma, "liggghts": dem, "continuum": cont, "means": mean}
+
+
+def main(argv=None):
+    ap = Parser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--gamma", type=float, nargs="+", choices=GAMMAS, default=list(GAMMAS), metavar="G",
+                    help="Γ of the committed --floor-power runs: " + ", ".join(f"{g:g}" for g in GAMMAS))
+    ap.add_argument("--json", type=output_json, metavar="PATH", help="write the numbers as JSON")
+    a = ap.parse_args(argv)
+    cases = [compare(g) for g in a.gamma]
     if a.json:
-        write_json(a.json, {"gamma": 3.0, "liggghts": dem, "continuum": cont, "means": mean})
+        write_json(a.json, {"cases": cases})
 
 
 if __name__ == "__main__":

@@ -1160,29 +1160,32 @@ def test_compare_bed_runs_the_model_on_the_eulerian_grid_too(tmp_path):
     assert "eulerian_note" in data
 
 
-def test_the_reference_floor_contacts_budget_at_gamma3():
-    """The sphere–floor contacts' energy budget of the main LIGGGHTS bed at Γ = 3
-    (``run_liggghts.py --gamma 3 --floor-power``, committed CSVs), from the committed files alone:
-    its floor work per cycle agrees with the one the committed floor-force series gives
-    (compare-bed's ∫F v_floor dt, 14.47 mJ) within 2 % although the two come from different
-    samplings (every step against every T/200); the contacts dissipate between 10 and 20 % of it
-    (15.3 % measured) in every measured window, the windows start and end with the floor empty;
-    and the continuum's wall-loss closure on LIGGGHTS's own floor state gives less than a tenth of
-    what the contacts dissipate (0.14 against 2.2 mJ per cycle; docs/model.md)."""
+@pytest.mark.parametrize("gamma", [2.0, 3.0, 4.5])
+def test_the_reference_floor_contacts_budget(gamma):
+    """The sphere–floor contacts' energy budget of the main LIGGGHTS bed
+    (``run_liggghts.py --gamma 2 3 4.5 --floor-power``, committed CSVs), from the committed files
+    alone: its floor work per cycle agrees with the one the committed floor-force series gives
+    (compare-bed's ∫F v_floor dt) within 2 % although the two come from different samplings
+    (every step against every T/200); the contacts dissipate between 10 and 20 % of it (14.1 /
+    15.3 / 15.9 % measured at Γ = 2 / 3 / 4.5) in every measured window, which starts and ends with
+    the floor empty; the continuum's wall-loss closure on LIGGGHTS's own floor state gives less
+    than 15 % of what the contacts dissipate (2 / 6 / 11 %), the hard-sphere contact theorem with
+    the whole floor force between 30 and 60 % (47 / 45 / 44 %; docs/model.md)."""
     import importlib.util
-    from bsrflow.analysis import compare_bed as cb
-    spec = importlib.util.spec_from_file_location(
-        "check_bed_floor_loss", Path(__file__).resolve().parents[1] / "bench" / "check_bed_floor_loss.py")
     import sys
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
+    from bsrflow.analysis import compare_bed as cb
+    bench = Path(__file__).resolve().parents[1] / "bench"
+    spec = importlib.util.spec_from_file_location("check_bed_floor_loss", bench / "check_bed_floor_loss.py")
+    sys.path.insert(0, str(bench))
     try:
         mod = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(mod)
     finally:
-        sys.path.pop(0)
-    folder = cb._run_dir(cb.REFERENCE, 3.0, "N2000_L13d")
+        sys.path.remove(str(bench))
+    folder = cb._run_dir(cb.REFERENCE, gamma, "N2000_L13d")
+    assert mod.run_folder(gamma).endswith(folder.name)
     dem = mod.dem_side(str(folder))
-    s = BedSetup(gamma=3.0)
+    s = BedSetup(gamma=gamma)
     f = cb._read_csv(folder / "floor_force.csv")
     series = cb._floor_work_per_cycle(np.asarray(f["t_s"], float), np.asarray(f["F_floor_N"], float), s)
     work = np.asarray(dem["floor_work_mJ"]) * 1e-3
@@ -1191,6 +1194,10 @@ def test_the_reference_floor_contacts_budget_at_gamma3():
     assert abs(work[1:].mean() / series - 1.0) < 0.02
     assert np.all((loss > 0.10 * work) & (loss < 0.20 * work))
     rows = mod.read_csv(str(folder / "floor_power_per_cycle.csv"))
-    assert np.all(rows["force_start_over_weight"] == 0.0) and np.all(rows["force_end_over_weight"] == 0.0)
-    assert dem["closure_on_dem_state_per_cycle_mJ"] < 0.1 * dem["measured_by_phase_per_cycle_mJ"]
-    assert abs(dem["measured_by_phase_per_cycle_mJ"] / (loss[1:].mean() * 1e3) - 1.0) < 0.05
+    measured = rows["measured"] == 1
+    assert np.all(rows["force_start_over_weight"][measured] == 0.0)
+    assert np.all(rows["force_end_over_weight"][measured] == 0.0)
+    by_phase = dem["measured_by_phase_per_cycle_mJ"]
+    assert abs(by_phase / (loss[1:].mean() * 1e3) - 1.0) < 0.05
+    assert dem["closure_on_dem_state_per_cycle_mJ"] < 0.15 * by_phase
+    assert 0.3 * by_phase < dem["contact_theorem_with_floor_force_per_cycle_mJ"] < 0.6 * by_phase

@@ -14,7 +14,7 @@ reduces its output into small CSV/JSON files next to this script:
   python reference/liggghts_bed/run_liggghts.py --gamma 1.5 2 2.5 3 3.5 4 4.5 5 5.5 6 6.5 7 7.5 8 --floor-restitution 1
   python reference/liggghts_bed/run_liggghts.py --settle --n 10000 --lateral 29
   python reference/liggghts_bed/run_liggghts.py --gamma 3 --n 10000 --lateral 29
-  python reference/liggghts_bed/run_liggghts.py --gamma 3 --floor-power   # + the floor contacts' loss
+  python reference/liggghts_bed/run_liggghts.py --gamma 2 3 4.5 --floor-power   # + the floor contacts' loss
   python reference/liggghts_bed/run_liggghts.py --summary          # flight_vs_gamma.csv
 
 Big files (dumps, restarts, logs) go to reference/liggghts_bed/work/ (not committed).
