@@ -838,6 +838,12 @@ def test_compare_bed_compares_each_main_run_with_the_spring_dashpot_bed_too(tmp_
     assert big[0]["flight_time_s"] == main_case["flight_time_s"] and "temperature" not in big[0]
     assert big[0]["dem_flight_time_s"] == pytest.approx(0.02693, abs=5e-5)    # its summary's last six flights
     assert math.isfinite(big[0]["mass_centre_rms_over_d"])
+    # and with the bed of four times the stiffness (its own continuum run: 4 K, that bed's phi_c and Z)
+    stiff = data["stiffer_bed_cases"]
+    assert [c["gamma"] for c in stiff] == [3.0] and "4 K" in stiff[0]["dem"] and "stiffer_bed_note" in data
+    assert stiff[0]["dem_flight_time_s"] == pytest.approx(0.02726, abs=5e-5)     # its summary's last six flights
+    assert stiff[0]["steps"] > main_case["steps"]           # the contact wave's bound: twice the speed
+    assert math.isfinite(stiff[0]["flight_time_s"]) and math.isfinite(stiff[0]["mass_centre_rms_over_d"])
     # and with the main bed's elastic-floor twin: the continuum run again with floor_restitution 1
     ef = data["elastic_floor_cases"]
     assert [c["gamma"] for c in ef] == [3.0] and ef[0]["floor_restitution"] == 1.0 and "floor_restitution" not in main_case

@@ -43,7 +43,8 @@ OUT = HERE          # where params.json and the settled-bed JSON go (--root move
 D = 5.0e-3            # sphere diameter [m]
 RHO = 1200.0          # material density [kg/m^3]
 E_REST = 0.9          # normal coefficient of restitution (Walton-Braun: K_unload = K/e^2)
-K_N = 5.0e4           # loading normal stiffness [N/m] (reduced stiffness, see README)
+K_N = 5.0e4           # loading normal stiffness [N/m] (reduced stiffness, see README; --stiffness)
+DEFAULT_K_N = K_N
 FREQ = 20.0           # floor frequency [Hz]
 G = 9.81              # gravity [m/s^2]
 SAMPLES_PER_CYCLE = 40          # dump frequency: 1/(40 f)
@@ -80,7 +81,7 @@ def hooke_contact_time(meff: float, k: float = K_N, e: float = E_REST) -> float:
 def timestep() -> tuple[float, int]:
     """dt ~ t_c(pair)/50, adjusted so that the dump interval 1/(40 f) is an integer
     number of steps. Returns (dt, steps per dump)."""
-    tc = contact_time(MASS / 2.0)
+    tc = contact_time(MASS / 2.0, K_N)
     dump_dt = PERIOD / SAMPLES_PER_CYCLE
     n = math.ceil(dump_dt / (tc / STEPS_PER_CONTACT))
     return dump_dt / n, n
@@ -329,8 +330,10 @@ def write_data(path: Path, pos: np.ndarray, lx: float, zlo: float, zhi: float) -
 
 
 def tag(n: int, lateral: float) -> str:
-    """N<n>_L<L/d>d, and _seed<s> for a packing poured with another seed than the default's."""
-    return f"N{n}_L{lateral:g}d" + ("" if SEED == DEFAULT_SEED else f"_seed{SEED}")
+    """N<n>_L<L/d>d, then _seed<s> for a packing poured with another seed than the default's and
+    _K<K> for another contact stiffness (settled with it too)."""
+    return (f"N{n}_L{lateral:g}d" + ("" if SEED == DEFAULT_SEED else f"_seed{SEED}")
+            + ("" if K_N == DEFAULT_K_N else f"_K{K_N:g}"))
 
 
 def box_top(n: int, lx: float) -> float:
@@ -1451,7 +1454,7 @@ def _refresh_runs(ap, option: str, names, needed: str) -> list:
 
 
 def main(argv=None):
-    global E_REST, E_FLOOR, FLOOR_POWER, WORK, RESULTS, OUT, SEED
+    global E_REST, E_FLOOR, FLOOR_POWER, WORK, RESULTS, OUT, SEED, K_N
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--check", action="store_true", help="single-sphere / two-sphere contact checks")
     ap.add_argument("--settle", action="store_true", help="pour and settle the bed")
@@ -1474,6 +1477,9 @@ def main(argv=None):
     ap.add_argument("--floor-power", action="store_true",
                     help="with --gamma: also measure the sphere-floor contacts' energy budget (LIGGGHTS's "
                          "store_force; the run's other files are unchanged): results/RUN/floor_power_per_cycle.csv")
+    ap.add_argument("--stiffness", type=float, default=DEFAULT_K_N, metavar="K",
+                    help=f"the contacts' loading stiffness [N/m] (default {DEFAULT_K_N:g}); another value settles and "
+                         "vibrates its own bed, whose folders end in _K<K> (the time step follows K)")
     ap.add_argument("--post", metavar="RUN", help="re-run the post-processing of work/RUN")
     ap.add_argument("--seed", type=int, default=DEFAULT_SEED, metavar="S",
                     help=f"seed of the random insertion before settling (default {DEFAULT_SEED}); another seed "
@@ -1503,6 +1509,11 @@ def main(argv=None):
     if a.floor_restitution is not None and (a.check or a.settle or a.settle_post):
         ap.error("argument --floor-restitution: only for the vibration runs (--gamma); --check, --settle and "
                  "--settle-post keep the contact law's e at the floor")
+    if not (math.isfinite(a.stiffness) and a.stiffness > 0):
+        ap.error(f"argument --stiffness: {a.stiffness!r} is outside the valid range (0, inf)")
+    if a.stiffness != DEFAULT_K_N and (a.check or a.summary):
+        ap.error("argument --stiffness: only for --settle, --settle-post, --gamma and --post (the contact checks "
+                 "and the summary are the default stiffness's)")
     if a.floor_power and not a.gamma:
         ap.error("argument --floor-power: only with --gamma (it measures a vibration run)")
     if not 0 <= a.seed < 2 ** 32:
@@ -1513,6 +1524,7 @@ def main(argv=None):
                  "or use no packing)")
     E_REST = a.restitution
     E_FLOOR = a.floor_restitution
+    K_N = a.stiffness
     FLOOR_POWER = a.floor_power
     SEED = a.seed
     if a.root:
@@ -1531,15 +1543,17 @@ def main(argv=None):
     if a.settle:
         res = settle(a.n, a.lateral, "walton_braun")
         (OUT / f"settled_{tag(a.n, a.lateral)}.json").write_text(json.dumps(res, indent=2))
-        write_params({f"settled_{tag(a.n, a.lateral)}": res})
+        if K_N == DEFAULT_K_N:        # params.json holds the default stiffness's bed
+            write_params({f"settled_{tag(a.n, a.lateral)}": res})
         print(json.dumps(res, indent=2))
     if a.settle_post:
         res = settle_post(a.n, a.lateral)
         (OUT / f"settled_{tag(a.n, a.lateral)}.json").write_text(json.dumps(res, indent=2))
-        write_params({f"settled_{tag(a.n, a.lateral)}": res})
+        if K_N == DEFAULT_K_N:        # params.json holds the default stiffness's bed
+            write_params({f"settled_{tag(a.n, a.lateral)}": res})
         print(json.dumps(res, indent=2))
     if a.gamma:
-        if E_REST == 0.9 and E_FLOOR is None:
+        if E_REST == 0.9 and E_FLOOR is None and K_N == DEFAULT_K_N:
             write_params({})
         for g in a.gamma:
             s = vibrate(g, a.n, a.lateral, a.model, a.friction, a.startup, a.measured)

@@ -27,6 +27,8 @@ run with the reference's lateral-size run (``large_box_cases``: N = 10 000 in a 
 main bed with elastic sphere–floor contacts (``elastic_floor_cases``, at the Γ it was run) is
 compared with the continuum whose floor loss is elastic too (``floor_restitution`` = 1), and
 ``floor_contact_effect`` gives, per Γ, what the floor's restitution alone changes in either.
+The bed settled and vibrated with four times the contacts' stiffness (``stiffer_bed_cases``,
+Γ = 3) is compared with the continuum at that stiffness and that bed's φ_c and Z.
 The same continuum runs against the main bed poured with other seeds (``other_packing_cases``,
 ``packing_spread``: the reference value's own spread over packings), where it was, and continuum
 runs of 30 cycles against the 30-cycle LIGGGHTS runs (``long_reference_cases``: the main bed at
@@ -629,6 +631,12 @@ LONG_VARIANTS = (("N2000_L13d_hooke", "LIGGGHTS spring-dashpot, frictionless", {
                  ("N2000_L13d_ew1", "LIGGGHTS Walton-Braun, elastic sphere-floor contacts; the continuum with "
                                     "floor_restitution 1", {"floor_restitution": 1.0}))
 """(tag, label, the continuum's setup changes) of the other beds' 30-cycle runs, where run."""
+STIFFER_BED = (MAIN_RUNS + "_K200000", 2.0e5)
+"""(tag, K [N/m]) of the reference's bed with four times the contacts' stiffness (``run_liggghts.py
+--settle --stiffness 2e5``, then ``--gamma 3 --floor-power --stiffness 2e5``): the same random
+insertion settled with that K and vibrated at Γ = 3; the continuum runs with that K and the φ_c and Z
+of that settled bed (``settled_N2000_L13d_K200000.json``), nothing else changed."""
+STIFFER_BED_RUNS = "LIGGGHTS Walton-Braun, 4 K (the bed settled with it); the continuum with 4 K and its phi_c, Z"
 OTHER_PACKING = MAIN_RUNS + "_seed"
 """The tags' start of the main bed poured with other seeds (``run_liggghts.py --seed S``: another
 random packing of the same spheres, settled alike), ``N2000_L13d_seed<S>``."""
@@ -664,6 +672,23 @@ def _long_runs(ref: Path, gamma: float, base: BedSetup) -> list:
     return out
 
 
+def _stiffer_bed(ref: Path, base: BedSetup, gammas) -> list:
+    """The continuum's setups for :data:`STIFFER_BED` at those of ``gammas`` where the reference ran
+    it: its K, and φ_c and the sphere–sphere Z of the bed settled with that K."""
+    tag, k = STIFFER_BED
+    done = [g for g in gammas if (_run_dir(ref, g, tag) / "summary.json").exists()]
+    if not done:
+        return []
+    settled = ref / f"settled_{tag}.json"
+    try:
+        packing = json.loads(settled.read_text())
+        phi_c, z = float(packing["phi_interior_cg"]), float(packing["Z_mean_pairs"])
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise ValueError(f"--reference {ref}: {settled.name}: not the settled bed's statistics "
+                         f"({type(exc).__name__}: {' '.join(str(exc).split())})") from None
+    return [base.with_(gamma=g, stiffness=k, phi_c=phi_c, coordination=z) for g in done]
+
+
 def _other_packing_tags(ref: Path, gamma: float, suffix: str = "") -> list:
     """The tags of the reference's other-packing runs at Γ = ``gamma`` (the main bed's law and
     floor, by seed; not the variants of such a packing, whose tags go on after the seed; only
@@ -697,7 +722,7 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
     known, params, base = reference_bed(ref, n_cells)
     gammas = [float(g) for g in (known if gammas is None else gammas)]
     cases, runs, extra, long_runs, spring_dashpot, large_box, elastic_floor = [], {}, [], [], [], [], []
-    other_packing, long_reference = [], []
+    other_packing, long_reference, stiffer = [], [], []
     long_reference_runs = {}            # Γ -> _long_runs(...)
     # (kind, setup, reference tag, list it joins, what the reference run is)
     tasks = [("case", base.with_(gamma=g), MAIN_RUNS, cases, None) for g in gammas]
@@ -716,6 +741,7 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                   for g in LONG_FRICTION_GAMMAS]
         tasks += [("case", base.with_(gamma=float(g), floor_restitution=1.0), ELASTIC_FLOOR, elastic_floor,
                    ELASTIC_FLOOR_RUNS) for g in params.get("gamma_list_elastic_floor") or [] if float(g) in gammas]
+        tasks += [("case", setup, STIFFER_BED[0], stiffer, STIFFER_BED_RUNS) for setup in _stiffer_bed(ref, base, gammas)]
         long_reference_runs.update({g: _long_runs(ref, g, base) for g in gammas})
         tasks += [("case", setup, tag, long_reference, label)
                   for g in gammas for tag, label, setup, _ in long_reference_runs[g]]
@@ -778,7 +804,7 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
         exc.partial = {"model": MODEL, "fitted_constants": {}, "n_cells": n_cells, "cases": cases,
                        "extra_cases": extra, "spring_dashpot_cases": spring_dashpot, "large_box_cases": large_box,
                        "elastic_floor_cases": elastic_floor, "other_packing_cases": other_packing,
-                       "long_reference_cases": long_reference,
+                       "long_reference_cases": long_reference, "stiffer_bed_cases": stiffer,
                        f"friction_{LONG_CYCLES}_cycles_runs": long_runs}
         raise
     g3 = next((c for c in cases if c["gamma"] == 3.0), None)
@@ -814,6 +840,10 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                            "uniform continuum is the same for both boxes, so the difference between the two references "
                            "is the DEM's own box-size effect"),
         "elastic_floor_cases": elastic_floor,
+        "stiffer_bed_cases": stiffer,
+        "stiffer_bed_note": ("the reference's bed with four times the contacts' stiffness (settled and vibrated with "
+                             "it, Gamma = 3) against the continuum with that stiffness and that settled bed's phi_c "
+                             "and Z: whether the reduced stiffness of the main comparison matters to either model"),
         "other_packing_cases": other_packing,
         "long_reference_cases": long_reference,
         "long_reference_note": (f"the main bed followed to cycle {LONG_CYCLES} (LIGGGHTS run_liggghts.py --measured "
@@ -884,7 +914,7 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
     if not include_extra:
         for key in ("period_doubling_gamma_friction_mu0.5", "spring_dashpot_cases", "spring_dashpot_note",
                     "period_doubling_gamma_spring_dashpot", "large_box_cases", "large_box_note",
-                    "elastic_floor_cases", "floor_contact_effect", "floor_contact_note", "other_packing_cases",
+                    "elastic_floor_cases", "stiffer_bed_cases", "stiffer_bed_note", "floor_contact_effect", "floor_contact_note", "other_packing_cases",
                     "long_reference_cases", "long_reference_note", "dem_lateral_structure", "dem_lateral_structure_note",
                     "packing_spread", "packing_spread_note"):
             del out[key]
