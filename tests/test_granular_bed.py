@@ -827,6 +827,13 @@ def test_compare_bed_compares_each_main_run_with_the_spring_dashpot_bed_too(tmp_
     assert sd[0]["dem_flight_time_s"] == pytest.approx(0.02569, abs=5e-5)     # the committed runs' flights
     assert main_case["dem_flight_time_s"] == pytest.approx(0.02720, abs=5e-5)
     assert sd[0]["temperature"]["energy_budget"]["dem_dissipation_per_cycle_J"] > 0
+    # the main bed's budget less its sphere-floor contacts' measured loss (floor_loss_by_phase.csv);
+    # the spring-dashpot bed has no such measurement
+    budget = main_case["temperature"]["energy_budget"]
+    assert budget["dem_floor_contact_loss_per_cycle_J"] == pytest.approx(2.222e-3, rel=1e-3)
+    net, whole = budget["dem_spheres_dissipation_over_enskog_cs_on_floor"], budget["dem_dissipation_over_enskog_cs_on_floor"]
+    assert 1.0 < net["median"] < whole["median"] and net["phases"] == whole["phases"]
+    assert "dem_floor_contact_loss_W" not in sd[0]["temperature"]["energy_budget"]
     assert not any("frictionless" in c.get("dem", "") and "spring" in c.get("dem", "") for c in data["extra_cases"])
     assert {c["restitution"] for c in data["extra_cases"]} == {0.5, 0.9}
     assert data["period_doubling_gamma_friction_mu0.5"]["dem"] == 3.75

@@ -442,8 +442,30 @@ def _temperature_against_phase(res, flights, ref: Path, s: BedSetup, tag: str):
                     budget["dem_dissipation_over_enskog_cs_on_floor"] = {
                         "median": float(np.median(ratio[on])), "min": float(ratio[on].min()),
                         "max": float(ratio[on].max()), "phases": int(on.sum())}
+                floor_loss = _dem_floor_contact_loss(folder, len(ratio))
+                if floor_loss is not None:
+                    spheres = (np.asarray(budget["dem_dissipation_W"]) - floor_loss) / ens_mid
+                    budget.update({"dem_floor_contact_loss_W": floor_loss.tolist(),
+                                   "dem_floor_contact_loss_per_cycle_J": float(floor_loss.mean() * s.period)})
+                    if on.any():
+                        budget["dem_spheres_dissipation_over_enskog_cs_on_floor"] = {
+                            "median": float(np.median(spheres[on])), "min": float(spheres[on].min()),
+                            "max": float(spheres[on].max()), "phases": int(on.sum()),
+                            "note": "the budget's dissipation less the sphere-floor contacts' measured loss "
+                                    "(floor_loss_by_phase.csv), over Enskog's loss on LIGGGHTS's state"}
             out["energy_budget"] = budget
     return out
+
+
+def _dem_floor_contact_loss(folder: Path, bins: int):
+    """The sphere–floor contacts' measured loss rate per phase interval [W] (the reference's
+    floor_loss_by_phase.csv, ``run_liggghts.py --floor-power``: the mean over each of ``bins``
+    intervals between frames, those of the energy budget), or None where the run has none."""
+    path = folder / "floor_loss_by_phase.csv"
+    if not path.exists():
+        return None
+    loss = np.asarray(_read_csv(path)["measured_loss_W"], dtype=float)
+    return loss if len(loss) == bins else None
 
 
 def _phase_window(phase, start, end, margin):
