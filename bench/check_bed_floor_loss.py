@@ -9,10 +9,12 @@ energy those sphere–floor contacts dissipated (the floor's work minus the cont
 spheres, ``floor_power_per_cycle.csv``), the continuum's wall-loss closure evaluated on
 LIGGGHTS's own state at the floor (``floor_loss_by_phase.csv``), and the hard-sphere contact
 theorem's loss with the whole floor force instead of the kinetic pressure,
-(1 − e_w) F √(2θ_z/π) (F the committed force series' mean per phase bin, θ_z the bottom layer's).  The continuum's side is the
+(1 − e_w) F √(2θ_z/π) (F the committed force series' mean per phase bin, √θ_z the bottom layer's at the bin's two
+frames, averaged).  The continuum's side is the
 reference bed (:class:`bsrflow.physics.granular_bed.BedSetup` defaults at that Γ) on the Lagrangian
 cells, started as ``compare-bed`` starts it and stepped here one step at a time with the package's
-compiled step (:func:`bsrflow.numerics.bed_lagrangian.bed_step`, the same steps as a run) so as to
+compiled step function (:func:`bsrflow.numerics.bed_lagrangian.bed_step`; a run cuts its steps at the
+saves, so its steps differ slightly) so as to
 sum, over the same windows, the floor's work R A v_floor Δt and the floor's collisional loss, the
 only loss the continuum puts at the floor ((1 − e_w) p √(2θ/π) A,
 :func:`bsrflow.physics.granular_bed.wall_loss`).  Energies in mJ per cycle; about 5 s per Γ.
@@ -20,6 +22,7 @@ only loss the continuum puts at the floor ((1 − e_w) p √(2θ/π) A,
 
 from __future__ import annotations
 
+import json
 import math
 import time
 
@@ -29,6 +32,8 @@ from _args import Parser, output_json, repo_path, write_json
 from bsrflow.numerics.bed_lagrangian import GranularBedColumn, _compile_bed, bed_step
 from bsrflow.physics.granular_bed import BedSetup
 
+FREQUENCY = 20.0
+"""The reference's floor frequency [Hz] (its params.json)."""
 GAMMAS = (2.0, 3.0, 4.5)
 """The Γ of the committed --floor-power runs."""
 
@@ -56,16 +61,23 @@ def dem_side(folder: str) -> dict:
     a = read_csv(path)
     m = a["measured"] == 1
     b = read_csv(f"{folder}/floor_loss_by_phase.csv")
-    period = 1.0 / 20.0
+    with open(f"{folder}/summary.json") as fh:
+        summ = json.load(fh)
+    e_w = summ.get("floor_restitution", summ.get("restitution", 0.9))
+    period = 1.0 / FREQUENCY
     # the hard-sphere contact theorem with the whole floor force: (1 - e_w) F sqrt(2 theta_z / pi), F the
-    # committed force series' mean in each phase bin over the same cycles (4 to 9), theta_z the bottom layer's
+    # committed force series' mean in each phase bin over the bins' cycles, sqrt(theta_z) the bottom layer's
+    # at the bin's two frames (its start and end), averaged
+    with open(f"{folder}/floor_loss_by_phase.csv") as fh:
+        first, last = (int(c) for c in fh.readline().split("cycles ")[1].split(":")[0].split("-"))
     f = read_csv(f"{folder}/floor_force.csv")
     tf, force = f["t_s"], f["F_floor_N"]
     bins = len(b["phase"])
-    late = (tf >= 4 * period) & (tf < 10 * period)
+    late = (tf >= first * period) & (tf < (last + 1) * period)
     k = np.floor((tf[late] / period % 1.0) * bins).astype(int)
     force_by_phase = np.array([force[late][k == j].mean() for j in range(bins)])
-    contact = (1.0 - 0.9) * force_by_phase * np.sqrt(2.0 * b["theta_z_bottom_m2_s2"] / np.pi)
+    speed = np.sqrt(2.0 * b["theta_z_bottom_m2_s2"] / np.pi)
+    contact = (1.0 - e_w) * force_by_phase * 0.5 * (speed + np.roll(speed, -1))
     return {"window_phase": phase,
             "contact_theorem_with_floor_force_per_cycle_mJ": float(np.mean(contact) * period * 1e3),
             "cycles": [int(c) for c in a["cycle"][m]],
@@ -153,7 +165,7 @@ def main(argv=None):
                     help="Γ of the committed --floor-power runs: " + ", ".join(f"{g:g}" for g in GAMMAS))
     ap.add_argument("--json", type=output_json, metavar="PATH", help="write the numbers as JSON")
     a = ap.parse_args(argv)
-    cases = [compare(g) for g in a.gamma]
+    cases = [compare(g) for g in dict.fromkeys(a.gamma)]
     if a.json:
         write_json(a.json, {"cases": cases})
 

@@ -202,3 +202,37 @@ def test_a_period_doubling_estimate_that_is_not_a_number_is_refused_up_front(cap
     ref = damaged_reference(tmp_path, top={"params.json": json.dumps(params)})
     refused(capsys, tmp_path, ["--reference", str(ref), "--gammas", "3", "--no-extra"],
             "--reference", "params.json: period_doubling_gamma is", "expected an object")
+
+
+@pytest.mark.parametrize("text, expected", [
+    ("# c\nphase,measured_loss_W\n0.0,0.1\n0.025,abc\n",
+     f"results/{RUN}/floor_loss_by_phase.csv line 4: measured_loss_W = 'abc' is not a finite number"),
+    ("# c\nphase,measured_loss_W\n0.0,0.1\n0.025,0.2\n",
+     f"results/{RUN}/floor_loss_by_phase.csv has 2 rows, expected 40"),
+])
+def test_a_damaged_floor_loss_file_is_refused_before_the_work(text, expected, tmp_path, capsys):
+    """The sphere–floor contacts' measured loss (floor_loss_by_phase.csv, which the energy budget
+    subtracts) is checked as the run's other files: a bad value or another number of phase bins is
+    refused up front (a review found NaN in the JSON with exit 0, and a short file dropped the keys
+    without a word)."""
+    ref = damaged_reference(tmp_path, run={"floor_loss_by_phase.csv": text})
+    refused(capsys, tmp_path, ["--reference", str(ref), "--gammas", "3", "--no-extra"], f"--reference {ref}: ",
+            expected)
+
+
+@pytest.mark.parametrize("settled, expected", [
+    ('{"phi_interior_cg": 1.5, "Z_mean_pairs": 4.9}', "settled_N2000_L13d_K200000.json: not the settled bed's statistics"),
+    ('{"Z_mean_pairs": 4.9}', "settled_N2000_L13d_K200000.json: not the settled bed's statistics (KeyError"),
+    ("{", "settled_N2000_L13d_K200000.json: not the settled bed's statistics"),
+])
+def test_the_stiffer_beds_inputs_are_checked_up_front(settled, expected, tmp_path, capsys):
+    """Without --no-extra the bed of four times the stiffness is checked before any run: its run's
+    files as every run's taken where present, and its settled bed's φ_c and Z (out of range, missing
+    or not JSON: one line naming --reference and the file)."""
+    ref = damaged_reference(tmp_path, top={"settled_N2000_L13d_K200000.json": settled})
+    refused(capsys, tmp_path, ["--reference", str(ref), "--gammas", "3"], f"--reference {ref}: ", expected)
+    (tmp_path / "b").mkdir()
+    ref2 = damaged_reference(tmp_path / "b", run={"flights.csv": "# c\nx,y\n1,2\n"},
+                             run_name="gamma_3.00_N2000_L13d_K200000")
+    refused(capsys, tmp_path / "b", ["--reference", str(ref2), "--gammas", "3"],
+            "results/gamma_3.00_N2000_L13d_K200000/flights.csv has no column t_takeoff_s")

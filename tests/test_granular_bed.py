@@ -830,7 +830,7 @@ def test_compare_bed_compares_each_main_run_with_the_spring_dashpot_bed_too(tmp_
     # the main bed's budget less its sphere-floor contacts' measured loss (floor_loss_by_phase.csv);
     # the spring-dashpot bed has no such measurement
     budget = main_case["temperature"]["energy_budget"]
-    assert budget["dem_floor_contact_loss_per_cycle_J"] == pytest.approx(2.222e-3, rel=1e-3)
+    assert budget["dem_floor_contact_loss_per_cycle_J"] == pytest.approx(0.8507e-3, rel=1e-3)
     net, whole = budget["dem_spheres_dissipation_over_enskog_cs_on_floor"], budget["dem_dissipation_over_enskog_cs_on_floor"]
     assert 1.0 < net["median"] < whole["median"] and net["phases"] == whole["phases"]
     assert "dem_floor_contact_loss_W" not in sd[0]["temperature"]["energy_budget"]
@@ -1173,20 +1173,10 @@ def test_compare_bed_runs_the_model_on_the_eulerian_grid_too(tmp_path):
     assert "eulerian_note" in data
 
 
-@pytest.mark.parametrize("gamma", [2.0, 3.0, 4.5])
-def test_the_reference_floor_contacts_budget(gamma):
-    """The sphere–floor contacts' energy budget of the main LIGGGHTS bed
-    (``run_liggghts.py --gamma 2 3 4.5 --floor-power``, committed CSVs), from the committed files
-    alone: its floor work per cycle agrees with the one the committed floor-force series gives
-    (compare-bed's ∫F v_floor dt) within 2 % although the two come from different samplings
-    (every step against every T/200); the contacts dissipate between 10 and 20 % of it (14.1 /
-    15.3 / 15.9 % measured at Γ = 2 / 3 / 4.5) in every measured window, which starts and ends with
-    the floor empty; the continuum's wall-loss closure on LIGGGHTS's own floor state gives less
-    than 15 % of what the contacts dissipate (2 / 6 / 11 %), the hard-sphere contact theorem with
-    the whole floor force between 30 and 60 % (47 / 45 / 44 %; docs/model.md)."""
+def _floor_loss_bench():
+    """bench/check_bed_floor_loss.py as a module (its readers of the reference's floor files)."""
     import importlib.util
     import sys
-    from bsrflow.analysis import compare_bed as cb
     bench = Path(__file__).resolve().parents[1] / "bench"
     spec = importlib.util.spec_from_file_location("check_bed_floor_loss", bench / "check_bed_floor_loss.py")
     sys.path.insert(0, str(bench))
@@ -1195,6 +1185,22 @@ def test_the_reference_floor_contacts_budget(gamma):
         spec.loader.exec_module(mod)
     finally:
         sys.path.remove(str(bench))
+    return mod
+
+
+@pytest.mark.parametrize("gamma", [2.0, 3.0, 4.5])
+def test_the_reference_floor_contacts_budget(gamma):
+    """The sphere–floor contacts' energy budget of the main LIGGGHTS bed
+    (``run_liggghts.py --gamma 2 3 4.5 --floor-power``, committed CSVs), from the committed files
+    alone: its floor work per cycle agrees with the one the committed floor-force series gives
+    (compare-bed's ∫F v_floor dt) within 2 % although the two come from different samplings
+    (every step against every T/200); the contacts dissipate between 3 and 10 % of it (4.6 / 5.9 /
+    6.6 % measured at Γ = 2 / 3 / 4.5) in every measured window, which starts and ends with the floor
+    empty; the hard-sphere contact theorem with the whole floor force, on LIGGGHTS's own state,
+    gives 1.0 to 1.5 times that loss (1.36 / 1.14 / 1.03), the continuum's closure with the kinetic
+    pressure less than a third of it (docs/model.md)."""
+    from bsrflow.analysis import compare_bed as cb
+    mod = _floor_loss_bench()
     folder = cb._run_dir(cb.REFERENCE, gamma, "N2000_L13d")
     assert mod.run_folder(gamma).endswith(folder.name)
     dem = mod.dem_side(str(folder))
@@ -1205,12 +1211,26 @@ def test_the_reference_floor_contacts_budget(gamma):
     loss = np.asarray(dem["floor_contact_loss_mJ"]) * 1e-3
     assert len(work) == 7
     assert abs(work[1:].mean() / series - 1.0) < 0.02
-    assert np.all((loss > 0.10 * work) & (loss < 0.20 * work))
+    assert np.all((loss > 0.03 * work) & (loss < 0.10 * work))
     rows = mod.read_csv(str(folder / "floor_power_per_cycle.csv"))
     measured = rows["measured"] == 1
     assert np.all(rows["force_start_over_weight"][measured] == 0.0)
     assert np.all(rows["force_end_over_weight"][measured] == 0.0)
     by_phase = dem["measured_by_phase_per_cycle_mJ"]
     assert abs(by_phase / (loss[1:].mean() * 1e3) - 1.0) < 0.05
-    assert dem["closure_on_dem_state_per_cycle_mJ"] < 0.15 * by_phase
-    assert 0.3 * by_phase < dem["contact_theorem_with_floor_force_per_cycle_mJ"] < 0.6 * by_phase
+    assert 1.0 * by_phase < dem["contact_theorem_with_floor_force_per_cycle_mJ"] < 1.5 * by_phase
+    assert dem["closure_on_dem_state_per_cycle_mJ"] < by_phase / 3.0
+
+
+def test_the_floor_power_measure_finds_no_loss_at_an_elastic_floor():
+    """The method's control (``run_liggghts.py --gamma 3 --floor-power --floor-restitution 1``,
+    committed CSV): with elastic sphere–floor contacts (Walton–Braun with K/e_w² = K) the floor's
+    work per window and the contacts' work on the spheres agree to 10⁻⁴ of the work (measured:
+    −0.0005 of 14.2 mJ per cycle).  Before 2026-12-05's fix this control showed a loss of 10 % of the
+    work: floor.txt's compute wall/gran/local zeroed the stored wall forces every 10th step."""
+    from bsrflow.analysis import compare_bed as cb
+    mod = _floor_loss_bench()
+    rows = mod.read_csv(str(cb._run_dir(cb.REFERENCE, 3.0, "N2000_L13d_ew1") / "floor_power_per_cycle.csv"))
+    measured = rows["measured"] == 1
+    assert measured.sum() == 7 and np.all(rows["floor_work_mJ"][measured] > 10.0)
+    assert np.all(np.abs(rows["floor_contact_loss_mJ"][measured]) < 1e-4 * rows["floor_work_mJ"][measured])

@@ -333,7 +333,7 @@ def tag(n: int, lateral: float) -> str:
     """N<n>_L<L/d>d, then _seed<s> for a packing poured with another seed than the default's and
     _K<K> for another contact stiffness (settled with it too)."""
     return (f"N{n}_L{lateral:g}d" + ("" if SEED == DEFAULT_SEED else f"_seed{SEED}")
-            + ("" if K_N == DEFAULT_K_N else f"_K{K_N:g}"))
+            + ("" if K_N == DEFAULT_K_N else f"_K{K_N:.12g}"))
 
 
 def box_top(n: int, lx: float) -> float:
@@ -646,7 +646,8 @@ def vibrate(gamma: float, n: int, lateral: float, model: str, mu: float,
     st = WORK / f"settle_{tag(n, lateral)}_walton_braun"
     if not (st / "settled.restart").exists():
         raise SystemExit(f"run --settle --n {n} --lateral {lateral}"
-                         + ("" if SEED == DEFAULT_SEED else f" --seed {SEED}") + " first")
+                         + ("" if SEED == DEFAULT_SEED else f" --seed {SEED}")
+                         + ("" if K_N == DEFAULT_K_N else f" --stiffness {K_N:.12g}") + " first")
     name = run_name(gamma, n, lateral, model, mu, cycles_startup, cycles_measured)
     wd = WORK / name
     wd.mkdir(parents=True, exist_ok=True)
@@ -691,8 +692,8 @@ variable zc equal c_cm[3]
 variable dpp equal c_mpp
 variable dpw equal c_mpw
 variable na equal atoms
-fix pr all print {FORCE_EVERY} "${{st}} ${{zf}} ${{fz}} ${{zc}} ${{dpp}} ${{dpw}} ${{na}}" file floor.txt screen no title "# step z_floor_mesh F_z_on_floor com_z max_overlap_pair max_overlap_wall atoms"
-{floor_power_deck(amp, dt) if FLOOR_POWER else ""}dump da all custom {ndump} bed.dump id x y z vx vy vz
+{floor_power_deck(amp, dt) if FLOOR_POWER else ""}fix pr all print {FORCE_EVERY} "${{st}} ${{zf}} ${{fz}} ${{zc}} ${{dpp}} ${{dpw}} ${{na}}" file floor.txt screen no title "# step z_floor_mesh F_z_on_floor com_z max_overlap_pair max_overlap_wall atoms"
+dump da all custom {ndump} bed.dump id x y z vx vy vz
 dump_modify da sort id format "%d %.8g %.8g %.8g %.6g %.6g %.6g"
 thermo_style    custom step time atoms f_floor[3]
 thermo          {SAMPLES_PER_CYCLE * ndump}
@@ -722,9 +723,14 @@ def floor_power_deck(amp: float, dt: float) -> str:
     gives its contacts, F_z v_floor (F_z the floor's force on the spheres, v_floor =
     A omega cos(omega t)), and the power those contacts give the spheres, sum_i F_z,i v_z,i (F_z,i
     each sphere's force from the floor, fix wall/gran's store_force).  Their difference is the rate
-    of the floor contacts' elastic energy plus their dissipation.  (fix print, which tests the
+    of the floor contacts' elastic energy plus their dissipation.  These lines come before floor.txt's
+    fix print: fixes act at the end of a step in the order they are defined, and that print's
+    compute wall/gran/local (every FORCE_EVERY steps) sets the stored wall forces to 0 (found
+    2026-12-05 with an elastic floor, whose contacts then seemed to lose 10 % of the floor's work).  (fix print, which tests the
     step number itself: a fix ave/time defined before the restart's reset_timestep would keep
     the restart's step numbers for its schedule.)"""
+    # (v_floor at step*dt: the mesh's own phase is one step off it, floor_position_check_max_abs_err_m =
+    # A omega dt; about 1e-3 of the loss)
     return f"""variable vfl equal {amp * OMEGA:.12g}*cos({OMEGA:.12g}*step*{dt:.12g})
 variable pfl equal -f_floor[3]*v_vfl
 variable pat atom f_force_wall[3]*vz
@@ -738,7 +744,8 @@ def write_floor_power(out: Path, wd: Path, meta: dict) -> dict:
     """results/RUN/floor_power_per_cycle.csv from work/RUN/floor_power.txt (--floor-power).
 
     Per window of one period, from the phase where the cycles' mean floor force is smallest (the
-    bed in flight, the floor contacts empty), to the same phase a period later: the floor's work
+    first such bin of 40; the bed in flight, the floor contacts empty), to the same phase a period
+    later: the floor's work
     on its contacts W_floor = int F_z v_floor dt, the contacts' work on the spheres
     W_spheres = int sum_i F_z,i v_z,i dt, and their difference, the energy the sphere-floor
     contacts dissipated (their elastic energy is the same, near zero, at the window's two ends;
@@ -821,7 +828,8 @@ def floor_loss_by_phase(out: Path, wd: Path, meta: dict, t: np.ndarray, loss_rat
     measured = np.array([loss_rate[m][edges == b].mean() for b in range(bins)])
     frames = np.array([np.mean(v, axis=0) for v in per_bin])
     with open(out / "floor_loss_by_phase.csv", "w") as fo:
-        fo.write(f"# cycles {n0}-{n1 - 1}: the sphere-floor contacts' measured loss rate (mean over the phase bin) and "
+        fo.write(f"# cycles {n0}-{n1 - 1}: the sphere-floor contacts' measured loss rate (mean over the phase bin; it "
+                 f"holds the rate of their elastic energy too, which sums to 0 over a cycle) and "
                  f"the continuum's wall-loss closure on LIGGGHTS's state at the floor (frames at the bin's start), W\n")
         fo.write("phase,measured_loss_W,closure_loss_W,closure_loss_vertical_W,phi_at_half_d,theta_bottom_m2_s2,"
                  "theta_z_bottom_m2_s2,spheres_below_d\n")
@@ -1358,7 +1366,7 @@ def summary() -> None:
     for model_, mu_, e_val, fname, key, e_floor in groups:
         main = [s for s in rows if s["n"] == 2000 and s["model"] == model_ and s["friction"] == mu_
                 and s.get("restitution", 0.9) == e_val and s.get("floor_restitution") == e_floor
-                and s.get("seed") is None
+                and s.get("seed") is None and s.get("K_N_m", DEFAULT_K_N) == DEFAULT_K_N
                 and (s["cycles_startup"], s["cycles_measured"]) == (CYCLES_STARTUP, CYCLES_MEASURED)]
         if not main:
             continue
@@ -1387,7 +1395,7 @@ def summary() -> None:
     params["period_doubling_note"] = ("main runs (e=0.9, frictionless): no period doubling for 1.5 <= Gamma <= 6 "
                                       "(null); e=0.5 runs are exploratory (same settled bed, same K and dt)")
     params["runs"] = [{k: s.get(k) for k in ("name", "gamma", "n", "lateral_d", "model", "friction", "restitution",
-                                         "floor_restitution", "seed", "cycles_measured", "wall_time_s", "cpu_time_s", "loop_time_s", "steps", "flight_time_mean_s",
+                                         "floor_restitution", "seed", "K_N_m", "cycles_measured", "wall_time_s", "cpu_time_s", "loop_time_s", "steps", "flight_time_mean_s",
                                          "flight_time_mean_last6_s", "gap_flight_time_mean_last6_s",
                                          "period_doubled", "period_doubled_last6", "com_period2",
                                          "max_overlap_pair_over_d",
@@ -1511,9 +1519,9 @@ def main(argv=None):
                  "--settle-post keep the contact law's e at the floor")
     if not (math.isfinite(a.stiffness) and a.stiffness > 0):
         ap.error(f"argument --stiffness: {a.stiffness!r} is outside the valid range (0, inf)")
-    if a.stiffness != DEFAULT_K_N and (a.check or a.summary):
+    if a.stiffness != DEFAULT_K_N and (a.check or a.summary or a.thresholds or a.structure):
         ap.error("argument --stiffness: only for --settle, --settle-post, --gamma and --post (the contact checks "
-                 "and the summary are the default stiffness's)")
+                 "and the summary are the default stiffness's; --thresholds and --structure name their runs)")
     if a.floor_power and not a.gamma:
         ap.error("argument --floor-power: only with --gamma (it measures a vibration run)")
     if not 0 <= a.seed < 2 ** 32:

@@ -457,15 +457,23 @@ def _temperature_against_phase(res, flights, ref: Path, s: BedSetup, tag: str):
     return out
 
 
+FLOOR_LOSS_BINS = 40
+"""Rows of a run's floor_loss_by_phase.csv: the phase intervals between the frames (T/40)."""
+
+
 def _dem_floor_contact_loss(folder: Path, bins: int):
     """The sphere–floor contacts' measured loss rate per phase interval [W] (the reference's
     floor_loss_by_phase.csv, ``run_liggghts.py --floor-power``: the mean over each of ``bins``
-    intervals between frames, those of the energy budget), or None where the run has none."""
+    intervals between frames, those of the energy budget), or None where the run has none
+    (ValueError, one line, where its rows are not those bins: :func:`check_reference` refuses it
+    before any run)."""
     path = folder / "floor_loss_by_phase.csv"
     if not path.exists():
         return None
     loss = np.asarray(_read_csv(path)["measured_loss_W"], dtype=float)
-    return loss if len(loss) == bins else None
+    if len(loss) != bins or not np.all(np.isfinite(loss)):
+        raise ValueError(f"{path}: expected {bins} finite rows of measured_loss_W (the energy budget's phase bins)")
+    return loss
 
 
 def _phase_window(phase, start, end, margin):
@@ -694,21 +702,26 @@ def _long_runs(ref: Path, gamma: float, base: BedSetup) -> list:
     return out
 
 
-def _stiffer_bed(ref: Path, base: BedSetup, gammas) -> list:
+def _stiffer_bed(ref: Path, base: BedSetup, gammas, shown=None) -> list:
     """The continuum's setups for :data:`STIFFER_BED` at those of ``gammas`` where the reference ran
-    it: its K, and φ_c and the sphere–sphere Z of the bed settled with that K."""
+    it: its K, and φ_c and the sphere–sphere Z of the bed settled with that K (ValueError, one line
+    naming ``--reference`` and the file, where these are not a bed's)."""
     tag, k = STIFFER_BED
     done = [g for g in gammas if (_run_dir(ref, g, tag) / "summary.json").exists()]
     if not done:
         return []
     settled = ref / f"settled_{tag}.json"
+    where = f"--reference {ref if shown is None else shown}: settled_{tag}.json"
     try:
         packing = json.loads(settled.read_text())
         phi_c, z = float(packing["phi_interior_cg"]), float(packing["Z_mean_pairs"])
-    except (OSError, ValueError, KeyError, TypeError) as exc:
-        raise ValueError(f"--reference {ref}: {settled.name}: not the settled bed's statistics "
-                         f"({type(exc).__name__}: {' '.join(str(exc).split())})") from None
-    return [base.with_(gamma=g, stiffness=k, phi_c=phi_c, coordination=z) for g in done]
+        setups = [base.with_(gamma=g, stiffness=k, phi_c=phi_c, coordination=z) for g in done]
+    except (OSError, UnicodeDecodeError, KeyError, TypeError) as exc:
+        raise ValueError(f"{where}: not the settled bed's statistics ({type(exc).__name__}: "
+                         f"{' '.join(str(exc).split())})") from None
+    except ValueError as exc:           # not JSON, or phi_c / Z outside the bed's valid ranges
+        raise ValueError(f"{where}: not the settled bed's statistics ({' '.join(str(exc).split())})") from None
+    return setups
 
 
 def _other_packing_tags(ref: Path, gamma: float, suffix: str = "") -> list:
@@ -1498,6 +1511,7 @@ RUN_COLUMNS = {
     "profiles.csv": ("z_rel_over_d",) + tuple(f"phi_{k}" for k in PHASE_LABELS),
     "temperature_profiles.csv": ("z_rel_over_d",) + tuple(f"{q}_{k}" for k in PHASE_LABELS
                                                           for q in ("phi", "theta_z", "theta_h")),
+    "floor_loss_by_phase.csv": ("phase", "measured_loss_W"),
 }
 """The columns compare-bed reads from each CSV of a LIGGGHTS run's folder (results/gamma_<Γ>_<tag>/);
 the trajectory's also vz_com_m_s and com_lab_m for the energy budget, top99_rel_m for the Γ = 3
@@ -1630,6 +1644,13 @@ class _ReferenceFolder:
             self.csv(f"{d}/profiles.csv", RUN_COLUMNS["profiles.csv"], why)
         if gamma3_figures and has["temperature_profiles.csv"] and has["temperature.csv"]:
             self.csv(f"{d}/temperature_profiles.csv", RUN_COLUMNS["temperature_profiles.csv"], why)
+        if has["floor_loss_by_phase.csv"] and has["temperature.csv"]:       # the energy budget's floor share
+            rel = f"{d}/floor_loss_by_phase.csv"
+            self.csv(rel, RUN_COLUMNS["floor_loss_by_phase.csv"], why)
+            rows = np.atleast_1d(self.parsed[rel][0]).size
+            if rows != FLOOR_LOSS_BINS:
+                self.refuse(f"{rel} has {rows} rows, expected {FLOOR_LOSS_BINS} (the phase bins between the frames "
+                            "of the energy budget)")
 
     def gamma_list(self, name: str, base: BedSetup, why: str) -> list:
         """The Γ of a flight_vs_gamma CSV, each one the bed takes."""
@@ -1783,6 +1804,9 @@ def check_reference(reference, gammas=None, include_extra=True, figures=False, s
                 f.run(g, tag, "a LIGGGHTS run taken where present")
         for tag in _other_packing_tags(ref, g):
             f.run(g, tag, "a LIGGGHTS run taken where present")
+        if (_run_dir(ref, g, STIFFER_BED[0]) / "summary.json").exists():
+            f.run(g, STIFFER_BED[0], "a LIGGGHTS run taken where its summary.json is")
+            _stiffer_bed(ref, base, [g], f.shown)         # its settled bed's phi_c and Z
         for tag, _, _, _ in _long_runs(ref, g, base):
             f.run(g, tag, "a 30-cycle LIGGGHTS run, taken where its summary.json is")
         if g in elastic:                               # the floor's effect (_floor_contact_effect)
