@@ -1197,7 +1197,7 @@ def test_the_reference_floor_contacts_budget(gamma):
     (every step against every T/200); the contacts dissipate between 3 and 10 % of it (4.6 / 5.9 /
     6.6 % measured at Γ = 2 / 3 / 4.5) in every measured window, which starts and ends with the floor
     empty; the hard-sphere contact theorem with the whole floor force, on LIGGGHTS's own state,
-    gives 1.0 to 1.5 times that loss (1.36 / 1.14 / 1.03), the continuum's closure with the kinetic
+    gives 1.0 to 1.5 times that loss (1.35 / 1.13 / 1.04), the continuum's closure with the kinetic
     pressure less than a third of it (docs/model.md)."""
     from bsrflow.analysis import compare_bed as cb
     mod = _floor_loss_bench()
@@ -1226,7 +1226,7 @@ def test_the_floor_power_measure_finds_no_loss_at_an_elastic_floor():
     """The method's control (``run_liggghts.py --gamma 3 --floor-power --floor-restitution 1``,
     committed CSV): with elastic sphere–floor contacts (Walton–Braun with K/e_w² = K) the floor's
     work per window and the contacts' work on the spheres agree to 10⁻⁴ of the work (measured:
-    −0.0005 of 14.2 mJ per cycle).  Before 2026-12-05's fix this control showed a loss of 10 % of the
+    −0.0006 of 14.2 mJ per cycle).  Before 2026-12-05's fix this control showed a loss of 10 % of the
     work: floor.txt's compute wall/gran/local zeroed the stored wall forces every 10th step."""
     from bsrflow.analysis import compare_bed as cb
     mod = _floor_loss_bench()
