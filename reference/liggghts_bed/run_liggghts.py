@@ -825,6 +825,10 @@ def floor_loss_by_phase(out: Path, wd: Path, meta: dict, t: np.ndarray, loss_rat
         per_bin[b].append((phi, th, thz, closure(th), closure(thz), int(bottom.sum())))
     m = (t >= n0 * PERIOD) & (t < n1 * PERIOD)
     edges = np.floor((t[m] / PERIOD % 1.0) * bins).astype(int)
+    empty = [b for b in range(bins) if not per_bin[b] or not np.any(edges == b)]
+    if empty:
+        raise SystemExit(f"{wd.name}: bed.dump or floor_power.txt holds no data at phase {empty[0] / bins:g} of "
+                         f"cycles {n0}-{n1 - 1} (a run stopped early?); rerun it")
     measured = np.array([loss_rate[m][edges == b].mean() for b in range(bins)])
     frames = np.array([np.mean(v, axis=0) for v in per_bin])
     with open(out / "floor_loss_by_phase.csv", "w") as fo:
