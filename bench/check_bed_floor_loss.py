@@ -11,7 +11,7 @@ LIGGGHTS's own state at the floor (``floor_loss_by_phase.csv``), and the hard-sp
 theorem's loss with the whole floor force instead of the kinetic pressure,
 (1 − e_w) F √(2θ_z/π) (F the committed force series' mean per phase bin, √θ_z the bottom layer's at the bin's two
 frames, averaged).  The continuum's side is the
-reference bed (:class:`bsrflow.physics.granular_bed.BedSetup` defaults at that Γ) on the Lagrangian
+reference bed (:func:`bsrflow.analysis.compare_bed.reference_bed`, compare-bed's, at that Γ) on the Lagrangian
 cells, started as ``compare-bed`` starts it and stepped here one step at a time with the package's
 compiled step function (:func:`bsrflow.numerics.bed_lagrangian.bed_step`; a run cuts its steps at the
 saves, so its steps differ slightly) so as to
@@ -29,11 +29,9 @@ import time
 import numpy as np
 
 from _args import Parser, output_json, repo_path, write_json
+from bsrflow.analysis.compare_bed import REFERENCE, _read_csv, reference_bed
 from bsrflow.numerics.bed_lagrangian import GranularBedColumn, _compile_bed, bed_step
-from bsrflow.physics.granular_bed import BedSetup
 
-FREQUENCY = 20.0
-"""The reference's floor frequency [Hz] (its params.json)."""
 GAMMAS = (2.0, 3.0, 4.5)
 """The Γ of the committed --floor-power runs."""
 
@@ -42,35 +40,26 @@ def run_folder(gamma: float) -> str:
     return f"reference/liggghts_bed/results/gamma_{gamma:.2f}_N2000_L13d"
 
 
-def read_csv(path: str) -> dict:
-    """The columns of a reference CSV (lines starting with # are comments; the first other line
-    names the columns) as float arrays."""
-    with open(path) as fh:
-        lines = [ln.strip() for ln in fh if ln.strip() and not ln.startswith("#")]
-    names = lines[0].split(",")
-    data = np.array([[float(v) for v in ln.split(",")] for ln in lines[1:]])
-    return {k: data[:, i] for i, k in enumerate(names)}
-
-
 def dem_side(folder: str) -> dict:
     """LIGGGHTS's floor budget from the committed CSVs (module docstring)."""
     path = f"{folder}/floor_power_per_cycle.csv"
     with open(path) as fh:
-        head = fh.readline()
-    phase = float(head.split("[cycle + ")[1].split(",")[0])
-    a = read_csv(path)
+        phase = float(fh.readline().split("[cycle + ")[1].split(",")[0])
+    a = _read_csv(path)
     m = a["measured"] == 1
-    b = read_csv(f"{folder}/floor_loss_by_phase.csv")
+    with open(f"{folder}/floor_loss_by_phase.csv") as fh:
+        first, last = (int(c) for c in fh.readline().split("cycles ")[1].split(":")[0].split("-"))
+    b = _read_csv(f"{folder}/floor_loss_by_phase.csv")
     with open(f"{folder}/summary.json") as fh:
         summ = json.load(fh)
-    e_w = summ.get("floor_restitution", summ.get("restitution", 0.9))
-    period = 1.0 / FREQUENCY
+    base = reference_bed(REFERENCE)[2]
+    # the floor's restitution: the run's own where its summary gives it (older summaries give neither)
+    e_w = summ.get("floor_restitution") or summ.get("restitution") or base.restitution
+    period = 1.0 / base.frequency
     # the hard-sphere contact theorem with the whole floor force: (1 - e_w) F sqrt(2 theta_z / pi), F the
     # committed force series' mean in each phase bin over the bins' cycles, sqrt(theta_z) the bottom layer's
     # at the bin's two frames (its start and end), averaged
-    with open(f"{folder}/floor_loss_by_phase.csv") as fh:
-        first, last = (int(c) for c in fh.readline().split("cycles ")[1].split(":")[0].split("-"))
-    f = read_csv(f"{folder}/floor_force.csv")
+    f = _read_csv(f"{folder}/floor_force.csv")
     tf, force = f["t_s"], f["F_floor_N"]
     bins = len(b["phase"])
     late = (tf >= first * period) & (tf < (last + 1) * period)
@@ -78,7 +67,7 @@ def dem_side(folder: str) -> dict:
     force_by_phase = np.array([force[late][k == j].mean() for j in range(bins)])
     speed = np.sqrt(2.0 * b["theta_z_bottom_m2_s2"] / np.pi)
     contact = (1.0 - e_w) * force_by_phase * 0.5 * (speed + np.roll(speed, -1))
-    return {"window_phase": phase,
+    return {"window_phase": phase, "startup_cycles": int(summ["cycles_startup"]),
             "contact_theorem_with_floor_force_per_cycle_mJ": float(np.mean(contact) * period * 1e3),
             "cycles": [int(c) for c in a["cycle"][m]],
             "floor_work_mJ": [float(v) for v in a["floor_work_mJ"][m]],
@@ -88,10 +77,11 @@ def dem_side(folder: str) -> dict:
             "measured_by_phase_per_cycle_mJ": float(np.mean(b["measured_loss_W"]) * period * 1e3)}
 
 
-def continuum_side(gamma: float, phase: float) -> dict:
-    """The continuum's floor work and floor loss per window [cycle + phase, cycle + 1 + phase)."""
+def continuum_side(gamma: float, phase: float, first: int) -> dict:
+    """The continuum's floor work and floor loss per window [cycle + phase, cycle + 1 + phase), the
+    reference's bed (compare-bed's) at Γ, the windows from cycle ``first`` (after the start-up)."""
     _compile_bed()
-    s = BedSetup(gamma=gamma)
+    s = reference_bed(REFERENCE)[2].with_(gamma=gamma)
     bed = GranularBedColumn(s)
     bed.apply_velocity_jump(s.amplitude * s.omega)
     n = s.n_cells
@@ -121,7 +111,6 @@ def continuum_side(gamma: float, phase: float) -> dict:
             loss[c] += -flux[0] * area * dt
         dt = bound
         steps += 1
-    first = 3                               # the reference's start-up cycles
     cyc = list(range(first, ncyc - 1))      # whole windows only
     return {"cycles": cyc, "floor_work_mJ": [float(work[c] * 1e3) for c in cyc],
             "floor_loss_mJ": [float(loss[c] * 1e3) for c in cyc],
@@ -133,7 +122,7 @@ def continuum_side(gamma: float, phase: float) -> dict:
 def compare(gamma: float) -> dict:
     """Both sides at one Γ, printed (module docstring)."""
     dem = dem_side(repo_path(run_folder(gamma)))
-    cont = continuum_side(gamma, dem["window_phase"])
+    cont = continuum_side(gamma, dem["window_phase"], dem["startup_cycles"])
     print(f"Γ = {gamma:g}: windows [cycle + {dem['window_phase']:.4f}, cycle + 1 + {dem['window_phase']:.4f}) "
           "periods, mJ")
     print("cycle  LIGGGHTS: floor work  floor-contact loss   continuum: floor work  floor loss")

@@ -1212,7 +1212,7 @@ def test_the_reference_floor_contacts_budget(gamma):
     assert len(work) == 7
     assert abs(work[1:].mean() / series - 1.0) < 0.02
     assert np.all((loss > 0.03 * work) & (loss < 0.10 * work))
-    rows = mod.read_csv(str(folder / "floor_power_per_cycle.csv"))
+    rows = cb._read_csv(folder / "floor_power_per_cycle.csv")
     measured = rows["measured"] == 1
     assert np.all(rows["force_start_over_weight"][measured] == 0.0)
     assert np.all(rows["force_end_over_weight"][measured] == 0.0)
@@ -1230,7 +1230,7 @@ def test_the_floor_power_measure_finds_no_loss_at_an_elastic_floor():
     work: floor.txt's compute wall/gran/local zeroed the stored wall forces every 10th step."""
     from bsrflow.analysis import compare_bed as cb
     mod = _floor_loss_bench()
-    rows = mod.read_csv(str(cb._run_dir(cb.REFERENCE, 3.0, "N2000_L13d_ew1") / "floor_power_per_cycle.csv"))
+    rows = cb._read_csv(cb._run_dir(cb.REFERENCE, 3.0, "N2000_L13d_ew1") / "floor_power_per_cycle.csv")
     measured = rows["measured"] == 1
     assert measured.sum() == 7 and np.all(rows["floor_work_mJ"][measured] > 10.0)
     assert np.all(np.abs(rows["floor_contact_loss_mJ"][measured]) < 1e-4 * rows["floor_work_mJ"][measured])

@@ -723,12 +723,14 @@ def floor_power_deck(amp: float, dt: float) -> str:
     gives its contacts, F_z v_floor (F_z the floor's force on the spheres, v_floor =
     A omega cos(omega t)), and the power those contacts give the spheres, sum_i F_z,i v_z,i (F_z,i
     each sphere's force from the floor, fix wall/gran's store_force).  Their difference is the rate
-    of the floor contacts' elastic energy plus their dissipation.  These lines come before floor.txt's
-    fix print: fixes act at the end of a step in the order they are defined, and that print's
-    compute wall/gran/local (every FORCE_EVERY steps) sets the stored wall forces to 0 (found
-    2026-12-05 with an elastic floor, whose contacts then seemed to lose 10 % of the floor's work).  (fix print, which tests the
-    step number itself: a fix ave/time defined before the restart's reset_timestep would keep
-    the restart's step numbers for its schedule.)"""
+    of the floor contacts' elastic energy plus their dissipation.
+
+    These lines come before floor.txt's fix print: fixes act at the end of a step in the order
+    they are defined, and that print's compute wall/gran/local (every FORCE_EVERY steps) sets the
+    stored wall forces to 0 (found 2026-12-05 with an elastic floor, whose contacts then seemed to
+    lose 10 % of the floor's work).  A fix print, which tests the step number itself: a fix
+    ave/time defined before the restart's reset_timestep keeps the restart's step numbers for its
+    schedule."""
     # (v_floor at step*dt: the mesh's own phase is one step off it, floor_position_check_max_abs_err_m =
     # A omega dt; about 1e-3 of the loss)
     return f"""variable vfl equal {amp * OMEGA:.12g}*cos({OMEGA:.12g}*step*{dt:.12g})
@@ -773,9 +775,8 @@ def write_floor_power(out: Path, wd: Path, meta: dict) -> dict:
         rows.append((c, c >= meta["cycles_startup"], wf, ws, wf - ws, f0, f1))
     with open(out / "floor_power_per_cycle.csv", "w") as fo:
         fo.write(f"# the sphere-floor contacts' energy budget per window [cycle + {phase0:.4f}, cycle + 1 + "
-                 f"{phase0:.4f}) periods (the phase of the smallest mean floor force); mJ\n")
-        fo.write("# floor_work: int F_z v_floor dt; work_on_spheres: int sum_i F_z,i v_z,i dt; "
-                 "floor_contact_loss: their difference\n")
+                 f"{phase0:.4f}) periods (the phase of the smallest mean floor force), mJ: floor_work = int F_z "
+                 "v_floor dt, work_on_spheres = int sum_i F_z,i v_z,i dt, floor_contact_loss their difference\n")
         fo.write("cycle,measured,floor_work_mJ,work_on_spheres_mJ,floor_contact_loss_mJ,"
                  "force_start_over_weight,force_end_over_weight\n")
         for r in rows:
