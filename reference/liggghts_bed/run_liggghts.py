@@ -157,9 +157,10 @@ pair_coeff      * *
     raise SystemExit(f"unknown model {model}")
 
 
-def wall_fix(model: str, mu: float) -> str:
-    """fix wall/gran arguments: models, the floor mesh, then model keywords."""
-    mesh = "mesh n_meshes 1 meshes floor"
+def wall_fix(model: str, mu: float, store_force: bool = False) -> str:
+    """fix wall/gran arguments: models, the floor mesh (then ``store_force yes``, a general keyword,
+    which LIGGGHTS takes only before the model keywords), then model keywords."""
+    mesh = "mesh n_meshes 1 meshes floor" + (" store_force yes" if store_force else "")
     if model == "walton_braun":
         return f"model edinburgh/stiffness tangential no_history {mesh}"
     tang = "history" if mu > 0 else "no_history"
@@ -675,7 +676,7 @@ neigh_modify    delay 0
 {deck_contact(model, mu)}
 timestep        {dt:.12g}
 fix floor all mesh/surface/stress file floor.stl type 2 reference_point 0 0 0
-fix wall all wall/gran {wall_fix(model, mu)}{" store_force yes" if FLOOR_POWER else ""}
+fix wall all wall/gran {wall_fix(model, mu, FLOOR_POWER)}
 # floor z = A sin(omega t), t = 0 at the start of this run
 fix shake all move/mesh mesh floor wiggle amplitude 0 0 {amp:.12g} period {PERIOD:.12g}
 fix grav all gravity {G} vector 0 0 -1
@@ -1529,6 +1530,12 @@ def main(argv=None):
                  "and the summary are the default stiffness's; --thresholds and --structure name their runs)")
     if a.floor_power and not a.gamma:
         ap.error("argument --floor-power: only with --gamma (it measures a vibration run)")
+    if a.floor_power and a.measured < 3:
+        ap.error(f"argument --floor-power: needs --measured of at least 3 (not {a.measured}): its phase table "
+                 "takes the measured cycles but the first and the last")
+    if a.floor_power and a.friction != 0.0:
+        ap.error(f"argument --floor-power: only for frictionless runs (--friction 0, not {a.friction:g}): it "
+                 "measures the floor contacts' normal work, and friction's tangential work would be missed")
     if not 0 <= a.seed < 2 ** 32:
         ap.error(f"argument --seed: {a.seed!r} is outside the valid range [0, 2^32)")
     if a.seed != DEFAULT_SEED and (a.check or a.post or a.thresholds or a.structure or a.summary
