@@ -17,7 +17,9 @@ compiled step function (:func:`bsrflow.numerics.bed_lagrangian.bed_step`; a run 
 saves, so its steps differ slightly) so as to
 sum, over the same windows, the floor's work R A v_floor Δt and the floor's collisional loss, the
 only loss the continuum puts at the floor ((1 − e_w) p √(2θ/π) A,
-:func:`bsrflow.physics.granular_bed.wall_loss`).  Energies in mJ per cycle; about 5 s per Γ.
+:func:`bsrflow.physics.granular_bed.wall_loss`).  Then, from the committed files alone, the Γ = 3
+floor budgets of the main bed, of the bed at four times the stiffness and of the control with
+elastic floor contacts (whose loss must be 0).  Energies in mJ per cycle; about 5 s per Γ.
 """
 
 from __future__ import annotations
@@ -148,6 +150,27 @@ def compare(gamma: float) -> dict:
     return {"gamma": gamma, "liggghts": dem, "continuum": cont, "means": mean}
 
 
+CONTROLS = (("N2000_L13d", "the main bed at K"),
+            ("N2000_L13d_K200000", "the bed at 4 K (settled with it)"),
+            ("N2000_L13d_ew1", "the control: elastic sphere-floor contacts"))
+"""The Γ = 3 runs whose floor budgets the controls' lines print (reference folder tags)."""
+
+
+def dem_controls() -> list:
+    """The floor budget of each of :data:`CONTROLS` over its measured windows (the start-up's end
+    to the last whole window, as run_liggghts.py's summary takes them), printed: the floor's work,
+    the contacts' loss and the loss over the work."""
+    out = []
+    print("Γ = 3, LIGGGHTS, means over the measured windows (mJ per cycle):")
+    for tag, label in CONTROLS:
+        rows = _read_csv(repo_path(f"reference/liggghts_bed/results/gamma_3.00_{tag}/floor_power_per_cycle.csv"))
+        m = rows["measured"] == 1
+        work, loss = float(rows["floor_work_mJ"][m].mean()), float(rows["floor_contact_loss_mJ"][m].mean())
+        print(f"  {label}: floor's work {work:.2f}, floor contacts' loss {loss:.4f} ({loss / work:+.1e} of the work)")
+        out.append({"tag": tag, "label": label, "floor_work_mJ": work, "floor_contact_loss_mJ": loss})
+    return out
+
+
 def main(argv=None):
     ap = Parser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--gamma", type=float, nargs="+", choices=GAMMAS, default=list(GAMMAS), metavar="G",
@@ -155,8 +178,9 @@ def main(argv=None):
     ap.add_argument("--json", type=output_json, metavar="PATH", help="write the numbers as JSON")
     a = ap.parse_args(argv)
     cases = [compare(g) for g in dict.fromkeys(a.gamma)]
+    controls = dem_controls()
     if a.json:
-        write_json(a.json, {"cases": cases})
+        write_json(a.json, {"cases": cases, "gamma3_controls": controls})
 
 
 if __name__ == "__main__":
