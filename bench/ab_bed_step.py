@@ -47,14 +47,17 @@ def _run(advance, setup):
 
 def _called_as_now(advance):
     """``advance`` taking the working tree's arguments: a ``bed_advance`` from before the floor's
-    own restitution (2026-12-04) has no ``e_w`` (the argument after ``e_d``), which is dropped
-    (the setup's e_w is then e_d: the A/B's bed gives no floor restitution)."""
+    own restitution (2026-12-04) has neither ``e_w`` nor ``wall_mode`` (the two arguments after
+    ``e_d``), one from before the floor loss's closure option (2026-12-06) no ``wall_mode``; the
+    missing ones are dropped (the A/B's bed gives neither: e_w is then e_d and the closure the
+    kinetic pressure's, which is what those versions ran)."""
     names = advance.py_func.__code__.co_varnames[:advance.py_func.__code__.co_argcount]
-    if "e_w" in names:
+    if "wall_mode" in names:
         return advance
+    drop = 1 if "e_w" in names else 2
 
     def older(*args):
-        return advance(*args[:-2], args[-1])
+        return advance(*args[:-1 - drop], args[-1])
     return older
 
 

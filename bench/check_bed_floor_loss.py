@@ -1,6 +1,7 @@
 """How much the floor's contacts dissipate: LIGGGHTS against the continuum (issue #19).
 
-    python bench/check_bed_floor_loss.py [--gamma 2 3 4.5] [--json PATH]
+    python bench/check_bed_floor_loss.py [--gamma 2 3 4.5] [--floor-loss kinetic_pressure|floor_reaction]
+                                         [--json PATH]
 
 LIGGGHTS's side comes from the committed reference
 (``reference/liggghts_bed/results/gamma_<Γ>_N2000_L13d/``, written by ``run_liggghts.py --gamma 2 3
@@ -17,7 +18,8 @@ compiled step function (:func:`bsrflow.numerics.bed_lagrangian.bed_step`; a run 
 saves, so its steps differ slightly) so as to
 sum, over the same windows, the floor's work R A v_floor Δt and the floor's collisional loss, the
 only loss the continuum puts at the floor ((1 − e_w) p √(2θ/π) A,
-:func:`bsrflow.physics.granular_bed.wall_loss`).  Then, from the committed files alone, the Γ = 3
+:func:`bsrflow.physics.granular_bed.wall_loss`; with ``--floor-loss floor_reaction`` the whole
+reaction's (1 − e_w) R √(2θ/π) A, :func:`~bsrflow.physics.granular_bed.wall_loss_from_reaction`).  Then, from the committed files alone, the Γ = 3
 floor budgets of the main bed, of the bed at four times the stiffness and of the control with
 elastic floor contacts (whose loss must be 0).  Energies in mJ per cycle; about 5 s per Γ.
 """
@@ -33,6 +35,7 @@ import numpy as np
 from _args import Parser, output_json, repo_path, write_json
 from bsrflow.analysis.compare_bed import REFERENCE, _read_csv, reference_bed
 from bsrflow.numerics.bed_lagrangian import GranularBedColumn, _compile_bed, bed_step
+from bsrflow.physics.granular_bed import FLOOR_LOSSES
 
 GAMMAS = (2.0, 3.0, 4.5)
 """The Γ of the committed --floor-power runs."""
@@ -79,11 +82,13 @@ def dem_side(folder: str) -> dict:
             "measured_by_phase_per_cycle_mJ": float(np.mean(b["measured_loss_W"]) * period * 1e3)}
 
 
-def continuum_side(gamma: float, phase: float, first: int) -> dict:
+def continuum_side(gamma: float, phase: float, first: int, floor_loss: str = "kinetic_pressure") -> dict:
     """The continuum's floor work and floor loss per window [cycle + phase, cycle + 1 + phase), the
-    reference's bed (compare-bed's) at Γ, the windows from cycle ``first`` (after the start-up)."""
+    reference's bed (compare-bed's) at Γ with the floor loss's closure ``floor_loss``
+    (:attr:`bsrflow.physics.granular_bed.BedSetup.floor_loss`), the windows from cycle ``first``
+    (after the start-up)."""
     _compile_bed()
-    s = reference_bed(REFERENCE)[2].with_(gamma=gamma)
+    s = reference_bed(REFERENCE)[2].with_(gamma=gamma, floor_loss=floor_loss)
     bed = GranularBedColumn(s)
     bed.apply_velocity_jump(s.amplitude * s.omega)
     n = s.n_cells
@@ -101,7 +106,7 @@ def continuum_side(gamma: float, phase: float, first: int) -> dict:
         c_before = math.floor(t / period - phase)
         r, status, bound = bed_step(bed.zf, bed.vf, bed.th, bed.hist, sig, pq, flux, cond, dt, gl, mu, rho_s, d,
                                     e, phi_c, k1, k2, s.cfl, bed.c, s.dissipation_restitution,
-                                    s.floor_dissipation_restitution)
+                                    s.floor_dissipation_restitution, s.floor_loss_mode)
         if status:
             raise SystemExit(f"check_bed_floor_loss: a cell's thickness reached 0 at t = {t:.6g} s")
         t += dt
@@ -121,13 +126,13 @@ def continuum_side(gamma: float, phase: float, first: int) -> dict:
             "steps": steps, "wall_time_s": time.perf_counter() - wall}
 
 
-def compare(gamma: float) -> dict:
+def compare(gamma: float, floor_loss: str = "kinetic_pressure") -> dict:
     """Both sides at one Γ, printed (module docstring)."""
     dem = dem_side(repo_path(run_folder(gamma)))
-    cont = continuum_side(gamma, dem["window_phase"], dem["startup_cycles"])
+    cont = continuum_side(gamma, dem["window_phase"], dem["startup_cycles"], floor_loss)
     print(f"Γ = {gamma:g}: windows [cycle + {dem['window_phase']:.4f}, cycle + 1 + {dem['window_phase']:.4f}) "
           "periods, mJ")
-    print("cycle  LIGGGHTS: floor work  floor-contact loss   continuum: floor work  floor loss")
+    print(f"cycle  LIGGGHTS: floor work  floor-contact loss   continuum ({floor_loss}): floor work  floor loss")
     for i, c in enumerate(dem["cycles"]):
         j = cont["cycles"].index(c) if c in cont["cycles"] else None
         cw = f"{cont['floor_work_mJ'][j]:10.2f}  {cont['floor_loss_mJ'][j]:10.3f}" if j is not None else ""
@@ -147,7 +152,7 @@ def compare(gamma: float) -> dict:
           f"{dem['closure_vertical_on_dem_state_per_cycle_mJ']:.3f}) against the measured "
           f"{dem['measured_by_phase_per_cycle_mJ']:.3f}; the contact theorem with the whole floor force and the "
           f"bottom layer's theta_z: {dem['contact_theorem_with_floor_force_per_cycle_mJ']:.3f}\n")
-    return {"gamma": gamma, "liggghts": dem, "continuum": cont, "means": mean}
+    return {"gamma": gamma, "floor_loss": floor_loss, "liggghts": dem, "continuum": cont, "means": mean}
 
 
 CONTROLS = (("N2000_L13d", "the main bed at K"),
@@ -175,9 +180,11 @@ def main(argv=None):
     ap = Parser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--gamma", type=float, nargs="+", choices=GAMMAS, default=list(GAMMAS), metavar="G",
                     help="Γ of the committed --floor-power runs: " + ", ".join(f"{g:g}" for g in GAMMAS))
+    ap.add_argument("--floor-loss", choices=FLOOR_LOSSES, default="kinetic_pressure",
+                    help="the continuum's floor-loss closure (BedSetup.floor_loss; default: kinetic_pressure)")
     ap.add_argument("--json", type=output_json, metavar="PATH", help="write the numbers as JSON")
     a = ap.parse_args(argv)
-    cases = [compare(g) for g in dict.fromkeys(a.gamma)]
+    cases = [compare(g, a.floor_loss) for g in dict.fromkeys(a.gamma)]
     controls = dem_controls()
     if a.json:
         write_json(a.json, {"cases": cases, "gamma3_controls": controls})

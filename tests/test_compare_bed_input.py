@@ -236,3 +236,16 @@ def test_the_stiffer_beds_inputs_are_checked_up_front(settled, expected, tmp_pat
                              run_name="gamma_3.00_N2000_L13d_K200000")
     refused(capsys, tmp_path / "b", ["--reference", str(ref2), "--gammas", "3"],
             "results/gamma_3.00_N2000_L13d_K200000/flights.csv has no column t_takeoff_s")
+
+
+def test_a_floor_loss_the_run_cannot_take_is_refused(tmp_path, capsys):
+    """--floor-loss: one of the closures (argparse's one line, exit 2), and floor_reaction not with
+    --eulerian (the Eulerian grid has only the kinetic pressure's floor loss)."""
+    refused(capsys, tmp_path, ["--floor-loss", "floor_reaction", "--eulerian", "1", "--gammas", "3", "--no-extra"],
+            "--floor-loss floor_reaction is an option of the Lagrangian cells", "kinetic_pressure")
+    with pytest.raises(SystemExit) as info:
+        main(["compare-bed", "--floor-loss", "reaction", "--gammas", "3", "--no-extra"])
+    assert info.value.code == 2
+    got = capsys.readouterr()
+    assert got.out == "" and got.err.count("\n") == 1
+    assert "--floor-loss" in got.err and "'kinetic_pressure', 'floor_reaction'" in got.err

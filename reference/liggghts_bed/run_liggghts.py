@@ -488,22 +488,34 @@ def read_local(path: Path, ncol: int) -> np.ndarray:
 
 
 def read_dump(path: Path):
-    """Frames of a dump custom file sorted by id: list of (step, ids, array)."""
+    """Frames of a dump custom file sorted by id: list of (step, ids, array).
+
+    A last frame cut short (LIGGGHTS killed while writing it) is dropped with a one-line
+    warning on stderr; the callers check that the frames they need are there."""
     frames = []
     with open(path) as f:
         while True:
             l = f.readline()
             if not l:
                 break
-            if l.startswith("ITEM: TIMESTEP"):
+            if not l.startswith("ITEM: TIMESTEP"):
+                continue
+            try:
                 step = int(f.readline())
                 f.readline()
                 n = int(f.readline())
-                for _ in range(4):
-                    f.readline()
-                f.readline()  # ITEM: ATOMS ...
-                block = np.array([f.readline().split() for _ in range(n)], dtype=float)
-                frames.append((step, block[:, 0].astype(int), block[:, 1:]))
+                for _ in range(5):  # the box (4 lines) and ITEM: ATOMS ...
+                    if not f.readline():
+                        raise ValueError
+                rows = [f.readline().split() for _ in range(n)]
+                block = np.array(rows, dtype=float)
+                if block.shape[0] != n or block.ndim != 2 or block.shape[1] < 2:
+                    raise ValueError
+            except ValueError:
+                print(f"run_liggghts.py: warning: {path}: the frame after {len(frames)} complete "
+                      "ones is cut short; it is dropped", file=sys.stderr)
+                break
+            frames.append((step, block[:, 0].astype(int), block[:, 1:]))
     return frames
 
 

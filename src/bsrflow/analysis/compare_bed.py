@@ -60,7 +60,7 @@ import numpy as np
 
 from ..numerics.solver import SimulationError
 from ..cli import Number, max_workers, workers_range
-from ..physics.granular_bed import MAX_CELLS_PER_D, MAX_LATERAL_CELLS, MAX_PERTURBATION, BedSetup
+from ..physics.granular_bed import FLOOR_LOSSES, MAX_CELLS_PER_D, MAX_LATERAL_CELLS, MAX_PERTURBATION, BedSetup
 
 CELLS_RANGE = (4, 1000)
 """``--cells``: the Lagrangian cells over the bed."""
@@ -743,7 +743,7 @@ MODEL = ("packing stress + granular temperature (bsrflow.physics.granular_bed), 
 
 
 def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, progress=None, include_extra=True,
-                log=None, workers=1, eulerian=None):
+                log=None, workers=1, eulerian=None, floor_loss="kinetic_pressure"):
     """Run the comparison (module docstring); returns the JSON-ready dict.  ``log(line)`` is called
     after every run.  ``workers`` > 1: the runs on that many processes (the same numbers, every
     run being serial and deterministic; the wall times then those of a shared machine;
@@ -752,9 +752,15 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
     the summaries).  ``eulerian``: None, or the keywords (dim, cells_per_d, lateral_cells,
     perturbation) of :func:`bsrflow.numerics.bed_eulerian.run_eulerian_bed`: the same model on the
     Eulerian grid at every main Γ too (``eulerian_cases``, :func:`eulerian_case`; serial, after the
-    other runs)."""
+    other runs).  ``floor_loss``: the closure of the floor's loss in every continuum run
+    (:attr:`bsrflow.physics.granular_bed.BedSetup.floor_loss`; the Eulerian grid takes only the
+    default)."""
     ref = Path(reference)
     known, params, base = reference_bed(ref, n_cells)
+    base = base.with_(floor_loss=floor_loss)
+    if eulerian is not None and floor_loss != "kinetic_pressure":
+        raise ValueError(f"floor_loss = {floor_loss!r} is an option of the Lagrangian cells; the Eulerian grid "
+                         "takes only 'kinetic_pressure'")
     gammas = [float(g) for g in (known if gammas is None else gammas)]
     cases, runs, extra, long_runs, spring_dashpot, large_box, elastic_floor = [], {}, [], [], [], [], []
     other_packing, long_reference, stiffer = [], [], []
@@ -855,7 +861,10 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
             "packing_stress": "Walton-Braun law per layer, stiffness 3 Z phi_c K A / (5 pi d^2) (affine uniaxial "
                               "compression of an isotropic packing)",
             "friction": f"only in the runs with friction {FRICTION:g}: the collisional losses' effective restitution "
-                        "e - 1.5 mu exp(-3 mu) (Chialvo and Sundaresan 2013)"},
+                        "e - 1.5 mu exp(-3 mu) (Chialvo and Sundaresan 2013)",
+            "floor_loss": floor_loss + (": (1 - e_w) p sqrt(2 theta / pi), p the kinetic pressure at the floor"
+                                        if floor_loss == "kinetic_pressure" else
+                                        ": (1 - e_w) R sqrt(2 theta / pi), R the whole floor reaction")},
         "n_cells": n_cells,
         "cases": cases,
         "flight_threshold_note": ("cases[].flight_by_threshold (and the other cases' where the reference has "
@@ -1841,6 +1850,10 @@ def add_parser(sub):
     p.add_argument("--eulerian-perturbation", type=Number(float, f"[0, {MAX_PERTURBATION:g}]"), metavar="EPS",
                    help="in 2-D / 3-D: the start's lateral mode, columns 1 + EPS cos(2πx/L) times as tall and "
                    "heavy as the static bed (default 0; [0, 0.05])")
+    p.add_argument("--floor-loss", choices=FLOOR_LOSSES, default="kinetic_pressure",
+                   help="the continuum's closure of the floor's collisional loss: kinetic_pressure (default; "
+                        "(1 - e_w) p sqrt(2θ/π)) or floor_reaction ((1 - e_w) R sqrt(2θ/π), R the whole floor "
+                        "reaction, the form LIGGGHTS's measured floor loss supports; not with --eulerian)")
     p.add_argument("--reference", default=os.fspath(REFERENCE), metavar="DIR",
                    help="the LIGGGHTS data folder (default: the repository's reference/liggghts_bed)")
     p.set_defaults(func=_main)
@@ -1891,6 +1904,9 @@ def _main(args) -> int:
                                ("--eulerian-perturbation", args.eulerian_perturbation)) if v is not None}
     if args.eulerian is None and given:
         raise ValueError(f"{next(iter(given))} needs --eulerian DIM")
+    if args.eulerian is not None and args.floor_loss != "kinetic_pressure":
+        raise ValueError(f"--floor-loss {args.floor_loss} is an option of the Lagrangian cells: with --eulerian the "
+                         "valid value is kinetic_pressure (the Eulerian grid's only floor loss)")
     if args.eulerian == 1:
         lateral = [k for k in given if k != "--eulerian-cells-per-d"]
         if lateral:
@@ -1916,7 +1932,7 @@ def _main(args) -> int:
     from .compare import _keeping_partial, _log
     with _keeping_partial(args.json, lambda p: f"{len(p['cases']) + len(p['extra_cases'])} finished run(s)"):
         out = compare_bed(args.gammas, args.cells, ref, args.figures, include_extra=not args.no_extra, log=_log,
-                          workers=args.workers, eulerian=eulerian)
+                          workers=args.workers, eulerian=eulerian, floor_loss=args.floor_loss)
     print(format_table(out))
     pd, cost = out["period_doubling_gamma"], out["cost_s"]
 

@@ -19,7 +19,7 @@ continuum (:class:`bsrflow.numerics.packing_nd.EulerianPackingND`) into the same
 checkpoint holds the discretisation's named fields (history included).
 
 ``kind = "granular_bed"`` (:class:`bsrflow.physics.granular_bed.BedSetup`: its fields, e.g.
-``gamma``, ``cycles``, ``n_cells``, ``output_height``, ``floor_restitution``) runs the vibrated bed of packing stress
+``gamma``, ``cycles``, ``n_cells``, ``output_height``, ``floor_restitution``, ``floor_loss``) runs the vibrated bed of packing stress
 and granular temperature that ``bsrflow compare-bed`` compares with LIGGGHTS, horizontally
 uniform, on its Lagrangian cells (:class:`bsrflow.numerics.bed_lagrangian.GranularBedColumn`):
 snapshots every ``save_every`` = 1 ms unless given (compare-bed's 0.1 ms would make 118 MB for
@@ -453,6 +453,7 @@ _RANGES = {
         "output_height": _Range(0, 100, "m", lo_open=True,
                                 note="(or not given: the rest height + (3aω)²/(2g) + 10 d)"),
         "floor_restitution": _Range(0, 1, lo_open=True, note="(or not given: the spheres' restitution)"),
+        "floor_loss": "'kinetic_pressure' or 'floor_reaction' (not given: 'kinetic_pressure')",
     },
 }
 _RANGES["granular_bed_eulerian"] = {**{k: v for k, v in _RANGES["granular_bed"].items() if k != "n_cells"},
@@ -461,7 +462,9 @@ _RANGES["granular_bed_eulerian"] = {**{k: v for k, v in _RANGES["granular_bed"].
                                     "lateral_cells": _Range(1, 256, integer=True,
                                                             note="(1 for a column, at least 2 in 2-D / 3-D; "
                                                                  "not given: 1 for a column, else 4)"),
-                                    "perturbation": _Range(0, 0.05, note="(0 for a column)")}
+                                    "perturbation": _Range(0, 0.05, note="(0 for a column)"),
+                                    "floor_loss": "'kinetic_pressure' (not given: 'kinetic_pressure'; "
+                                                  "'floor_reaction' is an option of kind = \"granular_bed\")"}
 _NOT_OPTIONS = {"granular_bed_eulerian": ("n_cells",)}
 """Fields of a kind's class that its config does not take (the Eulerian bed has no Lagrangian cells)."""
 """Each kind's fields' valid ranges, as its one-line errors state them (the scenario classes check

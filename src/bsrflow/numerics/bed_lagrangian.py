@@ -44,7 +44,7 @@ import numba
 import numpy as np
 
 from ..physics.granular_bed import (conductivity, constitutive_numpy, dissipation, pressure_and_viscosity,
-                                    wall_loss)
+                                    wall_loss, wall_loss_from_reaction)
 from ..physics.packing import history_update, packing_force, packing_force_numpy
 from .controller import restore_named_fields
 from .grid import spread_over_bins
@@ -54,12 +54,15 @@ __all__ = ["GranularBedColumn", "bed_step", "bed_advance", "stable_dt", "bed_ste
 
 
 @numba.njit(cache=True, error_model="numpy")
-def bed_step(zf, vf, th, hist, sig, pq, flux, cond, dt, gl, mu, rho_s, d, e, phi_c, k1, k2, cfl, c, e_d, e_w):
+def bed_step(zf, vf, th, hist, sig, pq, flux, cond, dt, gl, mu, rho_s, d, e, phi_c, k1, k2, cfl, c, e_d, e_w,
+             wall_mode):
     """One step (module docstring), in place; ``sig``, ``pq`` (n), ``flux``, ``cond`` (n + 1) are
     work arrays (``cond`` holds ζ_j/s_j until the conduction overwrites it); e_d the restitution of
     the spheres' collisional loss (:attr:`BedSetup.dissipation_restitution`, e without friction),
     e_w the floor's (:attr:`BedSetup.floor_dissipation_restitution`: e_d unless the floor's
-    restitution is given).  Returns (floor reaction R
+    restitution is given); wall_mode the floor loss's closure (:attr:`BedSetup.floor_loss_mode`:
+    0 the kinetic pressure's, :func:`wall_loss`; 1 the whole reaction's,
+    :func:`wall_loss_from_reaction`).  Returns (floor reaction R
     [Pa], status, Δt bound [s]); status 1: a cell's
     thickness reached 0.  The bound, the next step's Δt, is the smallest over the cells of the
     contact wave's cfl s_j/c and half the explicit limits of the viscous stress, μ s_j/(2ζ_j),
@@ -114,7 +117,10 @@ def bed_step(zf, vf, th, hist, sig, pq, flux, cond, dt, gl, mu, rho_s, d, e, phi
     flux[0] = 0.0
     cond[0] = 0.0
     if reaction > 0.0:
-        flux[0] = -wall_loss(mu / (rho_s * (zf[1] - zf[0])), th[0], rho_s, e, e_w)
+        if wall_mode == 1:
+            flux[0] = -wall_loss_from_reaction(reaction, th[0], e_w)
+        else:
+            flux[0] = -wall_loss(mu / (rho_s * (zf[1] - zf[0])), th[0], rho_s, e, e_w)
     flux[n] = 0.0
     cond[n] = 0.0
     for f in range(1, n):
@@ -184,14 +190,14 @@ def stable_dt(zf, th, mu, rho_s, d, e, cfl, c):
 
 @numba.njit(cache=True, error_model="numpy")
 def bed_advance(zf, vf, th, hist, t, t_stop, dt_next, mu, rho_s, d, e, phi_c, k1, k2, g, amp, w, moving,
-                counters, cfl, c, e_d, e_w, max_steps):
+                counters, cfl, c, e_d, e_w, wall_mode, max_steps):
     """Steps from t towards t_stop, each with the bound its previous step returned
     (``dt_next[0]``: in, the first step's; out, the bound after the last step), at most
     ``max_steps`` of them (the caller calls again until t = t_stop: the same steps as one call,
     and Ctrl-C / SIGTERM handled in between); the floor ϑ = a sin ωt when ``moving``
     (g_l = g − a ω² sin ωt), at rest otherwise.  counters: [steps, status]; returns (t, last
-    floor reaction [Pa]).  e_d, e_w: the spheres' and the floor's loss restitutions
-    (:func:`bed_step`)."""
+    floor reaction [Pa]).  e_d, e_w: the spheres' and the floor's loss restitutions, wall_mode the
+    floor loss's closure (:func:`bed_step`)."""
     n = th.shape[0]
     sig = np.empty(n)
     pq = np.empty(n)
@@ -208,7 +214,7 @@ def bed_advance(zf, vf, th, hist, t, t_stop, dt_next, mu, rho_s, d, e, phi_c, k1
             last = True
         gl = g - amp * w * w * math.sin(w * t) if moving else g
         reaction, status, bound = bed_step(zf, vf, th, hist, sig, pq, flux, cond, dt, gl, mu, rho_s, d, e, phi_c,
-                                           k1, k2, cfl, c, e_d, e_w)
+                                           k1, k2, cfl, c, e_d, e_w, wall_mode)
         dt_next[0] = bound
         counters[0] += 1
         t = t_stop if last else t + dt
@@ -218,9 +224,11 @@ def bed_advance(zf, vf, th, hist, t, t_stop, dt_next, mu, rho_s, d, e, phi_c, k1
     return t, reaction
 
 
-def bed_step_numpy(zf, vf, th, hist, dt, gl, mu, rho_s, d, e, phi_c, k1, k2, e_d=None, e_w=None):
+def bed_step_numpy(zf, vf, th, hist, dt, gl, mu, rho_s, d, e, phi_c, k1, k2, e_d=None, e_w=None,
+                   floor_loss="kinetic_pressure"):
     """Plain NumPy twin of :func:`bed_step` (copies; returns (zf, vf, th, hist, reaction));
-    ``e_d`` the losses' restitution (None: e), ``e_w`` the floor's (None: e_d)."""
+    ``e_d`` the losses' restitution (None: e), ``e_w`` the floor's (None: e_d), ``floor_loss``
+    the floor loss's closure (:attr:`BedSetup.floor_loss`)."""
     e_d = e if e_d is None else e_d
     e_w = e_d if e_w is None else e_w
     zf, vf, th, hist = (np.array(a, dtype=float) for a in (zf, vf, th, hist))
@@ -252,7 +260,8 @@ def bed_step_numpy(zf, vf, th, hist, dt, gl, mu, rho_s, d, e, phi_c, k1, k2, e_d
         t0 = max(th[0], 0.0)
         p0 = phi_new[0]
         p_kin = constitutive_numpy(p0, t0, rho_s, d, e)["p"]
-        flux[0] = -(1.0 - e_w) * p_kin * np.sqrt(2.0 * t0 / np.pi)
+        p_wall = reaction if floor_loss == "floor_reaction" else p_kin
+        flux[0] = -(1.0 - e_w) * p_wall * np.sqrt(2.0 * t0 / np.pi)
     phi_f = 0.5 * (phi_new[:-1] + phi_new[1:])
     t_f = 0.5 * (np.maximum(th[:-1], 0.0) + np.maximum(th[1:], 0.0))
     flux[1:n] = -constitutive_numpy(phi_f, t_f, rho_s, d, e)["kappa"] * np.diff(th) / (0.5 * (s[:-1] + s[1:]))
@@ -342,7 +351,7 @@ def _compile_bed():
     c = np.zeros(2, dtype=np.int64)
     bed_advance(zf, np.zeros(5), np.zeros(4), np.zeros(4), 0.0, 1e-6, np.array([stable_dt(
         zf, np.zeros(4), 1.0, 1000.0, 1e-3, 0.9, 0.4, 10.0)]), 1.0, 1000.0, 1e-3, 0.9, 0.6, 1.0, 1.0, 9.81, 0.0, 1.0,
-        False, c, 0.4, 10.0, 0.9, 0.9, 10)
+        False, c, 0.4, 10.0, 0.9, 0.9, 0, 10)
 
 
 def static_bed(setup):
@@ -432,7 +441,7 @@ class GranularBedColumn:
         while True:
             t, _ = bed_advance(self.zf, self.vf, self.th, self.hist, t, t1, self.dt_next, *self._args, moving,
                                self.counters, self.setup.cfl, self.c, self.setup.dissipation_restitution,
-                               self.setup.floor_dissipation_restitution, chunk)
+                               self.setup.floor_dissipation_restitution, self.setup.floor_loss_mode, chunk)
             if t >= t1 or self.counters[1]:
                 break
         self.steps = int(self.counters[0])

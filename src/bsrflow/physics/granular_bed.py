@@ -38,7 +38,9 @@ bottom is held at z = 0 while the reaction is ≥ 0, free otherwise; the energy 
 collisions with the floor (restitution e_w: the spheres' e unless ``floor_restitution`` is given) is the flux
 (1 − e_w) p √(2θ/π) into the floor while in contact (the Maxwellian flux of normal kinetic
 energy onto a wall, ρ_w θ √(θ/(2π)), times the fraction 1 − e_w² lost, with the density at the
-wall ρ_w = 2p/((1 + e_w)θ) from the pressure p the collisions exert on it: :func:`wall_loss`).  Top: free surface (σ = 0,
+wall ρ_w = 2p/((1 + e_w)θ) from the pressure p the collisions exert on it: :func:`wall_loss`);
+with ``floor_loss = "floor_reaction"`` (Lagrangian cells only) the whole floor reaction R takes
+the place of p, (1 − e_w) R √(2θ/π) (:func:`wall_loss_from_reaction`).  Top: free surface (σ = 0,
 no heat flux).
 
 What is kept and dropped.  Kept: the contact law's K, e, d, ρ_s; the settled packing's φ_c and Z
@@ -65,7 +67,7 @@ from .packing_bed import MAX_STATIC_OVERLAP, MAX_STEPS      # the packing bed's 
 
 __all__ = ["BedSetup", "g0_cs", "kinetic_pressure", "bulk_viscosity", "shear_viscosity", "pressure_and_viscosity",
            "conductivity",
-           "dissipation", "wall_loss", "effective_restitution", "constitutive_numpy", "EulerianBedSetup",
+           "dissipation", "wall_loss", "wall_loss_from_reaction", "FLOOR_LOSSES", "effective_restitution", "constitutive_numpy", "EulerianBedSetup",
            "check_eulerian_grid", "eulerian_vertical_cells"]
 
 SQRT_PI = math.sqrt(math.pi)
@@ -142,6 +144,25 @@ def wall_loss(phi, theta, rho_s, e, e_w):
     return (1.0 - e_w) * kinetic_pressure(phi, t, rho_s, e) * math.sqrt(2.0 * t / math.pi)
 
 
+@numba.njit(cache=True, inline="always")
+def wall_loss_from_reaction(reaction, theta, e_w):
+    """Energy flux into the floor from the collisions with it [W/m²] with the whole floor reaction
+    R [Pa] (``floor_loss = "floor_reaction"``): (1 − e_w) R √(2θ/π), the contact theorem of
+    :func:`wall_loss` with every unit of the floor's momentum delivered by collisions, the
+    contacts' elastic stress included.  It holds where the bottom layer is a dense gas pressed
+    onto the floor rather than a packing resting on it: measured in the LIGGGHTS bed at Γ = 2, 3,
+    4.5 (``reference/liggghts_bed/run_liggghts.py --floor-power``), this form on LIGGGHTS's own
+    floor state gives 104–135 % of its sphere–floor contacts' loss, :func:`wall_loss` 6–26 %
+    (docs/model.md, "The floor's share, measured").  A bed at rest on the floor (θ → 0) loses
+    nothing."""
+    return (1.0 - e_w) * reaction * math.sqrt(2.0 * max(theta, 0.0) / math.pi)
+
+
+FLOOR_LOSSES = ("kinetic_pressure", "floor_reaction")
+"""The closures of the floor's collisional loss (:attr:`BedSetup.floor_loss`), in the order of the
+compiled step's ``wall_mode`` (0: :func:`wall_loss`, 1: :func:`wall_loss_from_reaction`)."""
+
+
 def effective_restitution(e: float, friction: float) -> float:
     """e_eff = e − (3/2) μ exp(−3μ) (Chialvo and Sundaresan 2013's effective restitution of
     frictional spheres, :attr:`BedSetup.dissipation_restitution`); e itself when μ = 0."""
@@ -192,6 +213,10 @@ class BedSetup:
     against 400 cells.  floor_restitution e_w in (0, 1]: the sphere–floor contacts' restitution
     where it is not e (None: e), used only in the floor's loss (:func:`wall_loss`; with friction
     through :attr:`floor_dissipation_restitution`); 1 makes the floor's collisions elastic.
+    floor_loss: the closure of the floor's collisional loss, ``"kinetic_pressure"`` (the default,
+    :func:`wall_loss`: the kinetic pressure p at the floor) or ``"floor_reaction"``
+    (:func:`wall_loss_from_reaction`: the whole floor reaction R, the form LIGGGHTS's measured
+    floor loss supports; the Lagrangian cells only).
     """
 
     n_spheres: int = 2000
@@ -214,8 +239,12 @@ class BedSetup:
     save_every: float = 1e-4
     output_height: float | None = None
     floor_restitution: float | None = None
+    floor_loss: str = "kinetic_pressure"
 
     def __post_init__(self):
+        if not isinstance(self.floor_loss, str) or self.floor_loss not in FLOOR_LOSSES:
+            raise ValueError(f"floor_loss = {self.floor_loss!r} is not one of the valid values: "
+                             f"{' or '.join(repr(v) for v in FLOOR_LOSSES)}")
         for name, lo, hi in (("diameter", 0.0, 1.0), ("density", 0.0, 1e5), ("stiffness", 0.0, 1e12),
                              ("side", 0.0, 100.0), ("gravity", 0.0, 1e3), ("frequency", 0.0, 1e4),
                              ("save_every", 0.0, 1.0)):
@@ -329,6 +358,12 @@ class BedSetup:
         if self.floor_restitution is None:
             return self.dissipation_restitution
         return effective_restitution(float(self.floor_restitution), self.friction)
+
+    @property
+    def floor_loss_mode(self) -> int:
+        """The compiled step's ``wall_mode`` for :attr:`floor_loss` (its index in
+        :data:`FLOOR_LOSSES`)."""
+        return FLOOR_LOSSES.index(self.floor_loss)
 
     @property
     def amplitude(self) -> float:
@@ -474,6 +509,10 @@ class EulerianBedSetup(BedSetup):
         if self.lateral_cells is None and self.dimension in (1, 2, 3) and not isinstance(self.dimension, bool):
             object.__setattr__(self, "lateral_cells", 1 if self.dimension == 1 else 4)
         check_eulerian_grid(self.dimension, self.cells_per_d, self.lateral_cells, self.perturbation, "dimension")
+        if self.floor_loss != "kinetic_pressure" and self.floor_loss in FLOOR_LOSSES:
+            raise ValueError(f"floor_loss = {self.floor_loss!r} is not one of the valid values on the Eulerian grid: "
+                             "'kinetic_pressure' ('floor_reaction' is an option of the Lagrangian cells, "
+                             "kind = \"granular_bed\")")
         super().__post_init__()
 
     def _check_bed(self):
