@@ -1,11 +1,12 @@
 # bsrflow: two commands on a fresh machine (python3 + pip + make):
 #   make demo   -> virtual environment, install, run the main job (tapped column), write figures
-#   make test   -> the default test suite
+#   make test   -> the default test suite (on TEST_WORKERS = 2 processes, pytest-xdist)
 PYTHON ?= python3
 VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 OUT    ?= out
+TEST_WORKERS ?= 2
 
 .PHONY: demo test test-slow verify stability analysis compare bench install clean
 
@@ -21,7 +22,7 @@ demo: $(STAMP)
 	$(BIN)/bsrflow demo --out $(OUT)
 
 test: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n $(TEST_WORKERS)
 
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -q -m slow
