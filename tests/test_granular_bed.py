@@ -1249,7 +1249,8 @@ def test_the_reference_dump_reader_drops_a_frame_cut_short(tmp_path, capsys):
     frame = ("ITEM: TIMESTEP\n{step}\nITEM: NUMBER OF ATOMS\n2\nITEM: BOX BOUNDS pp pp ff\n"
              "0 1\n0 1\n0 1\nITEM: ATOMS id x y z\n1 0.1 0.2 0.3\n2 0.4 0.5 0.6\n")
     whole = frame.format(step=0) + frame.format(step=100)
-    for cut in (len(whole) - 5, len(whole) - 20, len(frame.format(step=0)) + 20):
+    # cut inside the last number ("0.", "0"), inside a row, inside the header
+    for cut in (len(whole) - 2, len(whole) - 3, len(whole) - 5, len(whole) - 20, len(frame.format(step=0)) + 20):
         p = tmp_path / "bed.dump"
         p.write_text(whole[:cut])
         frames = mod.read_dump(p)
@@ -1261,6 +1262,10 @@ def test_the_reference_dump_reader_drops_a_frame_cut_short(tmp_path, capsys):
     p.write_text(whole)
     assert [f[0] for f in mod.read_dump(p)] == [0, 100]
     assert capsys.readouterr().err == ""
+    assert mod.last_frame(p)[0] == 100
+    p.write_text(whole[:40])                     # a single frame, cut: no frame at all
+    with pytest.raises(SystemExit, match=r"^run_liggghts\.py: .*bed\.dump holds no complete frame"):
+        mod.last_frame(p)
 
 
 def test_the_whole_reaction_floor_loss_is_the_contact_theorem_with_the_reaction():
@@ -1314,3 +1319,44 @@ def test_the_whole_reaction_closure_gives_the_measured_floor_loss_at_gamma_3():
                              ["floor_loss_mJ"][1:])) for f in ("floor_reaction", "kinetic_pressure")}
     assert abs(cont["floor_reaction"] / measured - 1.0) < 0.10, (cont, measured)
     assert cont["kinetic_pressure"] < 0.6 * measured
+
+
+def test_floor_loss_from_a_config_and_set_and_refused_on_the_eulerian_grid(tmp_path, capsys):
+    """``floor_loss`` in a granular_bed config and through ``--set``: the run with it in the file
+    equals the default run with ``--set floor_loss="floor_reaction"`` bit for bit and records it
+    in the resolved config; a bad value or the Eulerian kind is refused in one line (exit 2)
+    before any output; EulerianBed itself refuses a setup with it (it ran the default before)."""
+    import xarray as xr
+
+    from bsrflow.numerics.bed_eulerian import EulerianBed
+    base = '[layer]\nkind = "granular_bed"\ncycles = 1\nn_cells = 40\n'
+    (tmp_path / "a.toml").write_text(base + 'floor_loss = "floor_reaction"\n')
+    (tmp_path / "b.toml").write_text(base)
+    assert main(["run", str(tmp_path / "a.toml"), "--out", str(tmp_path / "a.nc"), "--quiet"]) == 0
+    assert main(["run", str(tmp_path / "b.toml"), "--set", 'floor_loss="floor_reaction"', "--out",
+                 str(tmp_path / "b.nc"), "--quiet"]) == 0
+    assert main(["run", str(tmp_path / "b.toml"), "--out", str(tmp_path / "c.nc"), "--quiet"]) == 0
+    with xr.open_dataset(tmp_path / "a.nc") as a, xr.open_dataset(tmp_path / "b.nc") as b, \
+            xr.open_dataset(tmp_path / "c.nc") as c:
+        assert 'floor_loss = "floor_reaction"' in a.attrs["config_resolved"]
+        assert 'floor_loss = "kinetic_pressure"' in c.attrs["config_resolved"]
+        np.testing.assert_array_equal(a["mass_centre"].values, b["mass_centre"].values)
+        assert not np.array_equal(a["mass_centre"].values, c["mass_centre"].values)
+    capsys.readouterr()
+    for text, argv, msg in (
+            (base, ["--set", 'floor_loss="reaction"'],
+             "layer.floor_loss: floor_loss = 'reaction' is not one of the valid values: 'kinetic_pressure' or "
+             "'floor_reaction'"),
+            (base, ["--set", "floor_loss=1"], "layer.floor_loss: 1 must be a string"),
+            (base.replace('"granular_bed"', '"granular_bed_eulerian"').replace("n_cells = 40\n", "dimension = 1\n"),
+             ["--set", 'floor_loss="floor_reaction"'],
+             "floor_loss = 'floor_reaction' is not one of the valid values on the Eulerian grid: 'kinetic_pressure'")):
+        (tmp_path / "d.toml").write_text(text)
+        out = tmp_path / "d.nc"
+        assert main(["run", str(tmp_path / "d.toml"), *argv, "--out", str(out), "--quiet"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and msg in err[0], err
+        assert not out.exists()
+    with pytest.raises(ValueError, match=r"^floor_loss = 'floor_reaction' is not one of the valid values on the "
+                                         r"Eulerian grid"):
+        EulerianBed(BedSetup(floor_loss="floor_reaction"))

@@ -399,8 +399,7 @@ def settle_post(n: int, lateral: float, model: str = "walton_braun") -> dict:
     lx = lateral * D
     wd = WORK / f"settle_{tag(n, lateral)}_{model}"
     res = json.loads((wd / "settle_meta.json").read_text())
-    fr = read_dump(wd / "settled.dump")
-    t_, ids, x = fr[-1]
+    t_, ids, x = last_frame(wd / "settled.dump")
     ke = 0.5 * MASS * float(np.sum(x[:, 3:6] ** 2))
     res.update({"n": int(len(ids)), "kinetic_energy_final_J": ke,
            "kinetic_energy_per_weight_d": ke / (len(ids) * MASS * G * D),
@@ -490,8 +489,9 @@ def read_local(path: Path, ncol: int) -> np.ndarray:
 def read_dump(path: Path):
     """Frames of a dump custom file sorted by id: list of (step, ids, array).
 
-    A last frame cut short (LIGGGHTS killed while writing it) is dropped with a one-line
-    warning on stderr; the callers check that the frames they need are there."""
+    A last frame cut short (LIGGGHTS killed while writing it, also inside its last row's last
+    number) is dropped with a one-line warning on stderr; the callers check that the frames they
+    need are there (:func:`last_frame`)."""
     frames = []
     with open(path) as f:
         while True:
@@ -507,8 +507,10 @@ def read_dump(path: Path):
                 for _ in range(5):  # the box (4 lines) and ITEM: ATOMS ...
                     if not f.readline():
                         raise ValueError
-                rows = [f.readline().split() for _ in range(n)]
-                block = np.array(rows, dtype=float)
+                lines = [f.readline() for _ in range(n)]
+                if n and not lines[-1].endswith("\n"):     # the last row cut, perhaps inside a number
+                    raise ValueError
+                block = np.array([r.split() for r in lines], dtype=float)
                 if block.shape[0] != n or block.ndim != 2 or block.shape[1] < 2:
                     raise ValueError
             except ValueError:
@@ -517,6 +519,16 @@ def read_dump(path: Path):
                 break
             frames.append((step, block[:, 0].astype(int), block[:, 1:]))
     return frames
+
+
+def last_frame(path: Path):
+    """The last complete frame of :func:`read_dump`; a dump without one stops the script with one
+    line naming it."""
+    frames = read_dump(path)
+    if not frames:
+        raise SystemExit(f"run_liggghts.py: {path} holds no complete frame (the run that wrote it was cut "
+                         "short); run it again")
+    return frames[-1]
 
 
 # ---------------------------------------------------------------- coarse graining
@@ -861,7 +873,7 @@ def floor_loss_by_phase(out: Path, wd: Path, meta: dict, t: np.ndarray, loss_rat
 
 
 def write_settled_data(st: Path, path: Path, lx: float, n: int) -> None:
-    _, ids, x = read_dump(st / "settled.dump")[-1]
+    _, ids, x = last_frame(st / "settled.dump")
     lines = ["LIGGGHTS data file: settled bed (from settled.dump)", "",
              f"{len(ids)} atoms", "2 atom types", "",
              f"0 {lx:.10g} xlo xhi", f"0 {lx:.10g} ylo yhi", f"-0.02 {box_top(n, lx):.10g} zlo zhi",

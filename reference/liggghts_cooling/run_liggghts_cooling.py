@@ -136,7 +136,7 @@ write_dump all custom compressed.dump id x y z vx vy vz modify sort id
 """
     (wd / "in.compress").write_text(deck)
     wall_c = bed.run_liggghts(wd / "in.compress", wd, Path("log.compress"))
-    _, ids, x = bed.read_dump(wd / "compressed.dump")[-1]
+    _, ids, x = bed.last_frame(wd / "compressed.dump")
     relaxed_ke = 0.5 * bed.MASS * float((x[:, 3:6] ** 2).sum())
     overlap = max_overlap(x[:, :3] % l_end, l_end)
     v0 = gaussian(N, THETA0, rng)

@@ -842,7 +842,7 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
             for task in tasks:
                 finish(task, _bed_task(task[0], task[1], ref, task[2], progress))
     except (KeyboardInterrupt, SimulationError) as exc:
-        exc.partial = {"model": MODEL, "fitted_constants": {}, "n_cells": n_cells, "cases": cases,
+        exc.partial = {"model": MODEL, "fitted_constants": {}, "closures": {"floor_loss": floor_loss}, "n_cells": n_cells, "cases": cases,
                        "extra_cases": extra, "spring_dashpot_cases": spring_dashpot, "large_box_cases": large_box,
                        "elastic_floor_cases": elastic_floor, "other_packing_cases": other_packing,
                        "long_reference_cases": long_reference, "stiffer_bed_cases": stiffer,
@@ -1928,7 +1928,8 @@ def _main(args) -> int:
     t0 = time.perf_counter()
     n_main = len(args.gammas or known)
     print(f"bsrflow compare-bed: {n_main} Γ of the LIGGGHTS runs{'' if args.no_extra else ' and the e = 0.5 and friction runs'}, "
-          f"{args.cells} cells{f', {args.workers} workers' if args.workers > 1 else ''}", flush=True)
+          f"{args.cells} cells{f', {args.workers} workers' if args.workers > 1 else ''}"
+          f"{'' if args.floor_loss == 'kinetic_pressure' else f', floor loss {args.floor_loss}'}", flush=True)
     from .compare import _keeping_partial, _log
     with _keeping_partial(args.json, lambda p: f"{len(p['cases']) + len(p['extra_cases'])} finished run(s)"):
         out = compare_bed(args.gammas, args.cells, ref, args.figures, include_extra=not args.no_extra, log=_log,
