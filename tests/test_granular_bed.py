@@ -1308,7 +1308,7 @@ def test_floor_loss_option_is_checked_and_the_default_is_unchanged():
 
 def test_the_whole_reaction_closure_gives_the_measured_floor_loss_at_gamma_3():
     """The continuum with floor_loss = 'floor_reaction' dissipates at the floor, per cycle over
-    cycles 4-9 at Γ = 3, within 10 % of LIGGGHTS's measured sphere–floor contacts' loss (0.829
+    cycles 4-9 at Γ = 3, within 10 % of LIGGGHTS's measured sphere–floor contacts' loss (0.828
     against 0.847 mJ; ``python bench/check_bed_floor_loss.py --floor-loss floor_reaction``), where
     the default closure gives about half of it (0.448 mJ)."""
     mod = _floor_loss_bench()
@@ -1360,3 +1360,35 @@ def test_floor_loss_from_a_config_and_set_and_refused_on_the_eulerian_grid(tmp_p
     with pytest.raises(ValueError, match=r"^floor_loss = 'floor_reaction' is not one of the valid values on the "
                                          r"Eulerian grid"):
         EulerianBed(BedSetup(floor_loss="floor_reaction"))
+
+
+def test_the_whole_reaction_floor_loss_cannot_empty_the_bottom_cell_by_itself():
+    """floor_loss = 'floor_reaction': θ̇ = −aθ^½ in the bottom cell is integrated exactly over the
+    step, so the floor's flux removes at most the cell's energy 1.5μθ_0 (all of it when the
+    explicit flux (1 − e_w)R√(2θ_0/π) would remove more), and tends to the explicit flux as
+    aΔt/(2√θ_0) → 0."""
+    from bsrflow.physics.granular_bed import wall_loss_from_reaction
+    rng = np.random.default_rng(31)
+    s, mu, zf, vf, th, hist, k1 = _state(rng, on_floor=True)
+    s = s.with_(floor_loss="floor_reaction")
+    vf[1] = 0.0                                  # no compression work in the bottom cell: θ_0 as given
+    n = th.size
+
+    def flux0(theta0, dt):
+        t = th.copy()
+        t[0] = theta0
+        flux = np.empty(n + 1)
+        r, status, _ = bed_step(zf.copy(), vf.copy(), t, hist.copy(), np.empty(n), np.empty(n), flux,
+                                np.empty(n + 1), dt, s.gravity + 30.0, mu, s.density, s.diameter, s.restitution,
+                                s.phi_c, k1, k1 / s.restitution ** 2, s.cfl, s.contact_wave_speed(), s.restitution,
+                                s.restitution, s.floor_loss_mode)
+        assert status == 0 and r > 0
+        return flux[0], r
+
+    cold, dt = 1e-12, 2e-6
+    f, r = flux0(cold, dt)
+    assert wall_loss_from_reaction(r, cold, s.restitution) * dt > 1.5 * mu * cold        # explicit: overshoot
+    assert -f * dt == pytest.approx(1.5 * mu * cold, rel=1e-12)                          # exact: all of it
+    warm, dt = 1e-2, 1e-9
+    f, r = flux0(warm, dt)
+    assert -f == pytest.approx(wall_loss_from_reaction(r, warm, s.restitution), rel=1e-6)

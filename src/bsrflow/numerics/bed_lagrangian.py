@@ -18,7 +18,9 @@ One step of length Δt (``bed_step``; symplectic Euler for the faces, then the e
 5. θ_j += −(p_j + q_j)(v_{j+1} − v_j) Δt / (3μ/2) (compression work; the contact stress is
    elastic, its hysteresis loss leaves the bed), then the conduction fluxes
    H_f = −κ_f (θ_f − θ_{f−1}) / ((s_{f−1} + s_f)/2) between cells (none at the top; at the
-   floor the wall loss while the floor pushes), θ ≥ 0, then the collisional loss integrated
+   floor the wall loss while the floor pushes; with ``floor_loss = "floor_reaction"`` its
+   θ̇ = −aθ^½ integrated exactly over the step, as the flux of the energy it removes), θ ≥ 0,
+   then the collisional loss integrated
    exactly over the step (θ̇ = −A θ^{3/2}: θ ← θ / (1 + A Δt √θ / 2)²), then the history pass
    δ_max ← max(δ_max, δ) (0 where δ ≤ 0).
 
@@ -118,7 +120,11 @@ def bed_step(zf, vf, th, hist, sig, pq, flux, cond, dt, gl, mu, rho_s, d, e, phi
     cond[0] = 0.0
     if reaction > 0.0:
         if wall_mode == 1:
-            flux[0] = -wall_loss_from_reaction(reaction, th[0], e_w)
+            # θ̇ = −aθ^½ over the step, exactly (a flux that cannot empty the cell by itself):
+            # the flux of the energy it removes, 1.5μ(θ − (√θ − aΔt/2)₊²)/Δt
+            t0 = max(th[0], 0.0)
+            r0 = math.sqrt(t0) - 0.5 * dt * wall_loss_from_reaction(reaction, 1.0, e_w) / (1.5 * mu)
+            flux[0] = -1.5 * mu * (t0 - (r0 * r0 if r0 > 0.0 else 0.0)) / dt
         else:
             flux[0] = -wall_loss(mu / (rho_s * (zf[1] - zf[0])), th[0], rho_s, e, e_w)
     flux[n] = 0.0
@@ -260,8 +266,11 @@ def bed_step_numpy(zf, vf, th, hist, dt, gl, mu, rho_s, d, e, phi_c, k1, k2, e_d
         t0 = max(th[0], 0.0)
         p0 = phi_new[0]
         p_kin = constitutive_numpy(p0, t0, rho_s, d, e)["p"]
-        p_wall = reaction if floor_loss == "floor_reaction" else p_kin
-        flux[0] = -(1.0 - e_w) * p_wall * np.sqrt(2.0 * t0 / np.pi)
+        if floor_loss == "floor_reaction":      # integrated exactly over the step (bed_step)
+            r0 = np.sqrt(t0) - 0.5 * dt * (1.0 - e_w) * reaction * np.sqrt(2.0 / np.pi) / (1.5 * mu)
+            flux[0] = -1.5 * mu * (t0 - max(r0, 0.0) ** 2) / dt
+        else:
+            flux[0] = -(1.0 - e_w) * p_kin * np.sqrt(2.0 * t0 / np.pi)
     phi_f = 0.5 * (phi_new[:-1] + phi_new[1:])
     t_f = 0.5 * (np.maximum(th[:-1], 0.0) + np.maximum(th[1:], 0.0))
     flux[1:n] = -constitutive_numpy(phi_f, t_f, rho_s, d, e)["kappa"] * np.diff(th) / (0.5 * (s[:-1] + s[1:]))
