@@ -1,6 +1,7 @@
 """Issue #19, the vibrated bed's continuum (packing stress + granular temperature): compiled
 pieces against their NumPy twins, the floor that cannot pull, static equilibrium, input checks,
 the flight and period-doubling measures, and `bsrflow compare-bed` end to end (short)."""
+import io
 import json
 import math
 from pathlib import Path
@@ -1392,3 +1393,24 @@ def test_the_whole_reaction_floor_loss_cannot_empty_the_bottom_cell_by_itself():
     warm, dt = 1e-2, 1e-9
     f, r = flux0(warm, dt)
     assert -f == pytest.approx(wall_loss_from_reaction(r, warm, s.restitution), rel=1e-6)
+
+
+def test_figures_of_a_non_default_floor_loss_say_so():
+    """compare-bed's figures with floor_loss = 'floor_reaction' carry the closure's name (every
+    figure saved inside _figure_note); the default's carry nothing, and savefig is restored."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
+
+    from bsrflow.analysis.compare_bed import _figure_note
+    before = Figure.savefig
+    figs = []
+    for note in ("continuum floor loss: floor_reaction", None):
+        fig = plt.figure()
+        with _figure_note(note):
+            fig.savefig(io.BytesIO(), format="png")
+        figs.append([t.get_text() for t in fig.texts])
+        plt.close(fig)
+    assert figs == [["continuum floor loss: floor_reaction"], []]
+    assert Figure.savefig is before

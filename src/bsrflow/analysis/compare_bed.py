@@ -49,6 +49,7 @@ serial, see reference/liggghts_bed/README.md).
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -980,8 +981,31 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                     f"{got.get('mass_centre_rms_over_d', math.nan):.2f} d, {got['wall_time_s']:.1f} s")
         out["eulerian_note"] = EULERIAN_NOTE
     if figures:
-        _figures(out, runs, base, Path(figures), ref)
+        note = None if floor_loss == "kinetic_pressure" else f"continuum floor loss: {floor_loss}"
+        with _figure_note(note):
+            _figures(out, runs, base, Path(figures), ref)
     return out
+
+
+@contextlib.contextmanager
+def _figure_note(note):
+    """While inside: every matplotlib figure saved carries ``note`` in its lower right corner (a
+    non-default closure, so that its figures are not taken for the default's); None: nothing."""
+    if not note:
+        yield
+        return
+    from matplotlib.figure import Figure
+    saved = Figure.savefig
+
+    def savefig(fig, *args, **kwargs):
+        fig.text(0.995, 0.005, note, ha="right", va="bottom", fontsize=7, color="0.3")
+        return saved(fig, *args, **kwargs)
+
+    Figure.savefig = savefig
+    try:
+        yield
+    finally:
+        Figure.savefig = saved
 
 
 EULERIAN_NOTE = (
