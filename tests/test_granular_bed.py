@@ -1395,22 +1395,35 @@ def test_the_whole_reaction_floor_loss_cannot_empty_the_bottom_cell_by_itself():
     assert -f == pytest.approx(wall_loss_from_reaction(r, warm, s.restitution), rel=1e-6)
 
 
-def test_figures_of_a_non_default_floor_loss_say_so():
-    """compare-bed's figures with floor_loss = 'floor_reaction' carry the closure's name (every
-    figure saved inside _figure_note); the default's carry nothing, and savefig is restored."""
+def test_figures_of_a_non_default_floor_loss_say_so(tmp_path, monkeypatch):
+    """compare-bed's figure writer puts FIGURE_NOTE (compare-bed sets it to a non-default floor-loss
+    closure) in the figure's corner; unset, nothing; the figures compare-bed writes with
+    floor_reaction carry it (one Γ, no extras)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.figure import Figure
 
-    from bsrflow.analysis.compare_bed import _figure_note
-    before = Figure.savefig
-    figs = []
+    from bsrflow.analysis import compare_bed as cb
+    texts = []
     for note in ("continuum floor loss: floor_reaction", None):
         fig = plt.figure()
-        with _figure_note(note):
-            fig.savefig(io.BytesIO(), format="png")
-        figs.append([t.get_text() for t in fig.texts])
-        plt.close(fig)
-    assert figs == [["continuum floor loss: floor_reaction"], []]
-    assert Figure.savefig is before
+        token = cb.FIGURE_NOTE.set(note)
+        try:
+            cb._save_figure(fig, "title", tmp_path / "f.png", plt)
+        finally:
+            cb.FIGURE_NOTE.reset(token)
+        texts.append([t.get_text() for t in fig.texts])
+    assert texts == [["title", "continuum floor loss: floor_reaction"], ["title"]]
+    assert cb.FIGURE_NOTE.get() is None
+    saved = []
+    real = cb._save_figure
+
+    def spy(fig, title, path, plt_):
+        real(fig, title, path, plt_)
+        saved.append((path.name, [t.get_text() for t in fig.texts]))
+    monkeypatch.setattr(cb, "_save_figure", spy)
+    (tmp_path / "figs").mkdir()
+    cb.compare_bed([3.0], figures=tmp_path / "figs", include_extra=False, floor_loss="floor_reaction")
+    assert len(saved) >= 8 and all("continuum floor loss: floor_reaction" in t for _, t in saved), saved
+    assert sorted(p.name for p in (tmp_path / "figs").glob("*.png")) == sorted(n for n, _ in saved)
+    assert cb.FIGURE_NOTE.get() is None

@@ -49,7 +49,7 @@ serial, see reference/liggghts_bed/README.md).
 
 from __future__ import annotations
 
-import contextlib
+import contextvars
 import json
 import math
 import os
@@ -981,31 +981,17 @@ def compare_bed(gammas=None, n_cells=200, reference=REFERENCE, figures=None, pro
                     f"{got.get('mass_centre_rms_over_d', math.nan):.2f} d, {got['wall_time_s']:.1f} s")
         out["eulerian_note"] = EULERIAN_NOTE
     if figures:
-        note = None if floor_loss == "kinetic_pressure" else f"continuum floor loss: {floor_loss}"
-        with _figure_note(note):
+        token = FIGURE_NOTE.set(None if floor_loss == "kinetic_pressure" else f"continuum floor loss: {floor_loss}")
+        try:
             _figures(out, runs, base, Path(figures), ref)
+        finally:
+            FIGURE_NOTE.reset(token)
     return out
 
 
-@contextlib.contextmanager
-def _figure_note(note):
-    """While inside: every matplotlib figure saved carries ``note`` in its lower right corner (a
-    non-default closure, so that its figures are not taken for the default's); None: nothing."""
-    if not note:
-        yield
-        return
-    from matplotlib.figure import Figure
-    saved = Figure.savefig
-
-    def savefig(fig, *args, **kwargs):
-        fig.text(0.995, 0.005, note, ha="right", va="bottom", fontsize=7, color="0.3")
-        return saved(fig, *args, **kwargs)
-
-    Figure.savefig = savefig
-    try:
-        yield
-    finally:
-        Figure.savefig = saved
+FIGURE_NOTE = contextvars.ContextVar("FIGURE_NOTE", default=None)
+"""A note :func:`_save_figure` writes in the lower right corner of every figure (compare-bed sets
+it to a non-default floor-loss closure, so that those figures are not taken for the default's)."""
 
 
 EULERIAN_NOTE = (
@@ -1378,9 +1364,7 @@ def _figures(out, runs, base, folder, ref=REFERENCE):
     ax.set_ylabel("flight time per cycle [ms] (last six cycles)")
     ax.set_title("Vibrated bed, f = 20 Hz: flight time against Γ")
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
-    fig.tight_layout()
-    fig.savefig(folder / "bed_flight_vs_gamma.png", dpi=120)
-    plt.close(fig)
+    _save_figure(fig, None, folder / "bed_flight_vs_gamma.png", plt)
     _bifurcation_figure(out, Path(ref), folder, plt)
     _temperature_vs_gamma_figure(out, folder, plt)
     _floor_force_figure(out, folder, plt)
@@ -1398,9 +1382,7 @@ def _figures(out, runs, base, folder, ref=REFERENCE):
         ax.set_ylabel("height above the floor [d]")
         ax.set_title("Γ = 3, e = 0.9, frictionless")
         ax.legend(fontsize=8)
-        fig.tight_layout()
-        fig.savefig(folder / "bed_trajectory_gamma3.png", dpi=120)
-        plt.close(fig)
+        _save_figure(fig, None, folder / "bed_trajectory_gamma3.png", plt)
         dem_dir = _run_dir(ref, 3.0)
         prof = dem_dir / "profiles.csv"
         fig, axes = plt.subplots(1, 4, figsize=(11, 4), sharey=True)
@@ -1503,8 +1485,13 @@ PHASE_LABELS = {"phase0": "ωt = 0", "phase_pi2": "ωt = π/2", "phase_pi": "ωt
 
 
 def _save_figure(fig, title, path, plt):
-    """The figure's title; saved to ``path`` at 120 dpi, closed."""
-    fig.suptitle(title)
+    """The figure's title (None: none above its panels'), and :data:`FIGURE_NOTE` where set;
+    saved to ``path`` at 120 dpi, closed.  Every figure of compare-bed is written here."""
+    if title is not None:
+        fig.suptitle(title)
+    note = FIGURE_NOTE.get()
+    if note:
+        fig.text(0.995, 0.005, note, ha="right", va="bottom", fontsize=7, color="0.3")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)

@@ -760,13 +760,11 @@ class EulerianBed:
         """(For an :class:`~bsrflow.physics.granular_bed.EulerianBedSetup`, :meth:`from_setup`
         takes the grid from the setup.)  ``tracers``: None or their positions (n, dim) [m]
         (:meth:`set_tracers`)."""
-        from ..physics.granular_bed import check_eulerian_grid, eulerian_vertical_cells
+        from ..physics.granular_bed import check_eulerian_floor_loss, check_eulerian_grid, eulerian_vertical_cells
         from ..physics.motion import SinusoidalVibration
         from .bed_lagrangian import static_bed
         check_eulerian_grid(dim, cells_per_d, lateral_cells, perturbation)
-        if getattr(setup, "floor_loss", "kinetic_pressure") != "kinetic_pressure":
-            raise ValueError(f"floor_loss = {setup.floor_loss!r} is not one of the valid values on the Eulerian grid: "
-                             "'kinetic_pressure' ('floor_reaction' is an option of the Lagrangian cells)")
+        check_eulerian_floor_loss(setup.floor_loss)
         cfl = setup.cfl if cfl is None else cfl
         if not (isinstance(cfl, (int, float)) and 0.0 < cfl <= 0.5):
             raise ValueError(f"cfl = {cfl!r} is outside the valid range (0, 0.5]")

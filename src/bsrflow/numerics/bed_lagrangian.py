@@ -46,7 +46,7 @@ import numba
 import numpy as np
 
 from ..physics.granular_bed import (conductivity, constitutive_numpy, dissipation, pressure_and_viscosity,
-                                    wall_loss, wall_loss_from_reaction)
+                                    wall_loss)
 from ..physics.packing import history_update, packing_force, packing_force_numpy
 from .controller import restore_named_fields
 from .grid import spread_over_bins
@@ -120,10 +120,11 @@ def bed_step(zf, vf, th, hist, sig, pq, flux, cond, dt, gl, mu, rho_s, d, e, phi
     cond[0] = 0.0
     if reaction > 0.0:
         if wall_mode == 1:
-            # θ̇ = −aθ^½ over the step, exactly (a flux that cannot empty the cell by itself):
-            # the flux of the energy it removes, 1.5μ(θ − (√θ − aΔt/2)₊²)/Δt
+            # 1.5μ θ̇ = −wall_loss_from_reaction = −(1 − e_w) R √(2/π) √θ, i.e. θ̇ = −a√θ, over the
+            # step exactly, √θ ← (√θ − aΔt/2)₊ (a flux that cannot empty the cell by itself),
+            # passed as the flux of the energy it removes
             t0 = max(th[0], 0.0)
-            r0 = math.sqrt(t0) - 0.5 * dt * wall_loss_from_reaction(reaction, 1.0, e_w) / (1.5 * mu)
+            r0 = math.sqrt(t0) - 0.5 * dt * ((1.0 - e_w) * reaction * math.sqrt(2.0 / math.pi)) / (1.5 * mu)
             flux[0] = -1.5 * mu * (t0 - (r0 * r0 if r0 > 0.0 else 0.0)) / dt
         else:
             flux[0] = -wall_loss(mu / (rho_s * (zf[1] - zf[0])), th[0], rho_s, e, e_w)

@@ -67,7 +67,8 @@ from .packing_bed import MAX_STATIC_OVERLAP, MAX_STEPS      # the packing bed's 
 
 __all__ = ["BedSetup", "g0_cs", "kinetic_pressure", "bulk_viscosity", "shear_viscosity", "pressure_and_viscosity",
            "conductivity",
-           "dissipation", "wall_loss", "wall_loss_from_reaction", "FLOOR_LOSSES", "effective_restitution", "constitutive_numpy", "EulerianBedSetup",
+           "dissipation", "wall_loss", "wall_loss_from_reaction", "FLOOR_LOSSES", "check_eulerian_floor_loss",
+           "effective_restitution", "constitutive_numpy", "EulerianBedSetup",
            "check_eulerian_grid", "eulerian_vertical_cells"]
 
 SQRT_PI = math.sqrt(math.pi)
@@ -161,6 +162,16 @@ def wall_loss_from_reaction(reaction, theta, e_w):
 FLOOR_LOSSES = ("kinetic_pressure", "floor_reaction")
 """The closures of the floor's collisional loss (:attr:`BedSetup.floor_loss`), in the order of the
 compiled step's ``wall_mode`` (0: :func:`wall_loss`, 1: :func:`wall_loss_from_reaction`)."""
+
+
+def check_eulerian_floor_loss(floor_loss) -> None:
+    """Refuse (ValueError, one line) a floor loss the Eulerian grid does not have: it takes only
+    ``"kinetic_pressure"`` (:class:`EulerianBedSetup`, and
+    :class:`bsrflow.numerics.bed_eulerian.EulerianBed` for any setup)."""
+    if not (isinstance(floor_loss, str) and floor_loss == "kinetic_pressure"):
+        raise ValueError(f"floor_loss = {floor_loss!r} is not one of the valid values on the Eulerian grid: "
+                         "'kinetic_pressure' ('floor_reaction' is an option of the Lagrangian cells, "
+                         "kind = \"granular_bed\")")
 
 
 def effective_restitution(e: float, friction: float) -> float:
@@ -509,10 +520,7 @@ class EulerianBedSetup(BedSetup):
         if self.lateral_cells is None and self.dimension in (1, 2, 3) and not isinstance(self.dimension, bool):
             object.__setattr__(self, "lateral_cells", 1 if self.dimension == 1 else 4)
         check_eulerian_grid(self.dimension, self.cells_per_d, self.lateral_cells, self.perturbation, "dimension")
-        if not (isinstance(self.floor_loss, str) and self.floor_loss == "kinetic_pressure"):
-            raise ValueError(f"floor_loss = {self.floor_loss!r} is not one of the valid values on the Eulerian grid: "
-                             "'kinetic_pressure' ('floor_reaction' is an option of the Lagrangian cells, "
-                             "kind = \"granular_bed\")")
+        check_eulerian_floor_loss(self.floor_loss)
         super().__post_init__()
 
     def _check_bed(self):
