@@ -73,3 +73,19 @@ def test_the_end_point_depends_only_on_the_values():
     x, _, _ = compass_search(lambda p: 0.0 if p[0] != 0.0 or p[1] != 0.0 else 1.0, [0.0, 0.0],
                              step=[1.0, 1.0], lower=LOWER, upper=UPPER, min_step=[0.5, 0.5], max_evals=10)
     assert list(x) == [1.0, 0.0]                             # all four neighbours tie: the first (+x) wins
+
+
+def test_calibrate_refines_its_grids_best_point_on_a_small_column():
+    """The whole calibration on a small column: the refined point is no worse than the grid's
+    best, inside the search's bounds, and its run count is the grid's plus the search's."""
+    from bsrflow.analysis.compare import _residuals, calibrate, run_dem_column
+    from bsrflow.physics.column import ColumnSetup
+    s = ColumnSetup(n_spheres=6, a_over_d=0.75, tap_start=0.05, t_end=0.35, points_per_diameter=4,
+                    save_every=0.005)
+    dem = run_dem_column(s)
+    grid_m0, grid_eps = (150.0, 600.0), (0.5, 0.9)
+    costs = [float(r @ r) for r in (_residuals(s, dem, m, e) for m in grid_m0 for e in grid_eps) if r is not None]
+    cal = calibrate(s, dem, log=None, grid_m0=grid_m0, grid_eps=grid_eps)
+    assert costs and cal["rms_residual_over_d"] ** 2 * 2 <= min(costs) * (1 + 1e-12)
+    assert 20.0 <= cal["m0"] <= 1e5 and 0.0 <= cal["kernel_dissipation"] <= 0.9
+    assert 4 < cal["bsr_runs"] <= 4 + 60
