@@ -360,3 +360,17 @@ def test_sweep_refuses_checkpoint_every_from_its_config_file(tmp_path, capsys):
                  "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--set run.checkpoint_every" in err[0] and "no checkpoints" in err[0], err
+
+
+@pytest.mark.parametrize("spec, expected", [
+    ("a_over_d=abc", "a_over_d = 'abc' is not a number; valid range [0, 20]"),
+    ("tap.a_over_d=0.5,abc", "tap.a_over_d = 'abc' is not a number; valid range [0, 20]"),
+    ("n_spheres=abc", "n_spheres = 'abc' is not an integer; valid range [2, 100000] (integers)"),
+    ("a_over_d=x:1:3", "START and STOP must be numbers; valid range [0, 20]"),
+    ("f=10,abc", "f = 'abc' is not a number; valid range [0.001, 10000] Hz"),
+])
+def test_a_value_that_is_not_a_number_names_the_parameters_valid_range(spec, expected):
+    """`--param NAME=abc` named no range while an out-of-range number did (an audit, 2026-12-06)."""
+    with pytest.raises(ValueError) as info:
+        parse_param(spec)
+    assert str(info.value) == f"--param {spec!r}: {expected}"

@@ -162,7 +162,14 @@ def _main(argv) -> int:
     except KeyboardInterrupt as exc:
         return _interrupted("bsrflow", exc)
     argv = list(sys.argv[1:] if argv is None else argv)
-    args = parser.parse_args(argv)
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:
+        command = getattr(args, "command", None)
+        where = f"bsrflow {command}" if command else "bsrflow"
+        hint = "options are not abbreviated; " if any(w.startswith("--") for w in unknown) else ""
+        print(f"{where}: error: unrecognized arguments: {' '.join(unknown)} ({hint}`{where} --help` lists "
+              f"what it takes)", file=sys.stderr)
+        return 2
     if not getattr(args, "func", None):
         print("bsrflow: error: a COMMAND is required; `bsrflow --help` lists them", file=sys.stderr)
         return 2

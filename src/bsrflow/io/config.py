@@ -41,7 +41,7 @@ from dataclasses import dataclass
 from typing import Any, Mapping
 
 __all__ = ["Config", "ConfigError", "load_config", "default_config_text", "saved_config", "parse_override",
-           "CFL_LIMITS", "FIELDS"]
+           "field_range", "CFL_LIMITS", "FIELDS"]
 
 
 class ConfigError(ValueError):
@@ -251,6 +251,13 @@ def _short_names() -> dict[str, str]:
 
 
 _SHORT = _short_names()
+
+
+def field_range(key: str) -> str | None:
+    """The valid range (with units) of the config field ``key`` (dotted, short or alias), as the
+    config's errors state it; None for a key that names no field."""
+    f = _BY_NAME.get(_SHORT.get(key, key))
+    return None if f is None else f.range_text()
 
 
 def _suggest(word: str, candidates) -> str:

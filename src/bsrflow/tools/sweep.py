@@ -47,7 +47,7 @@ import time
 import numpy as np
 
 from ..cli import Number, max_workers, workers_range
-from .setup_source import (SetupSource, canonical_name, check_given_once, check_no_run_outputs, coerce_value,
+from .setup_source import (SetupSource, canonical_name, check_given_once, check_no_run_outputs, coerce_value, config_module,
                            parameter_info, parse_value)
 from ..physics.column import continuum_label
 
@@ -78,6 +78,13 @@ MAX_CASES = 100_000
 was building its case list for minutes without a word)."""
 
 
+def _valid_range(name: str) -> str:
+    """"; valid range ..." for a parameter the config knows (its field's range), else ""."""
+    mod = config_module()
+    rng = getattr(mod, "field_range", lambda key: None)(name) if mod is not None else None
+    return f"; valid range {rng}" if rng else ""
+
+
 def parse_param(spec: str) -> tuple[str, list]:
     """Parse ``name=start:stop:num`` (linspace, num integer >= 1) or ``name=v1,v2,...``.
 
@@ -98,7 +105,7 @@ def parse_param(spec: str) -> tuple[str, list]:
         try:
             start, stop = float(parts[0]), float(parts[1])
         except ValueError:
-            raise ValueError(f"--param {spec!r}: START and STOP must be numbers") from None
+            raise ValueError(f"--param {spec!r}: START and STOP must be numbers{_valid_range(name)}") from None
         if not (math.isfinite(start) and math.isfinite(stop)):
             raise ValueError(f"--param {spec!r}: START and STOP must be finite")
         if not _INT.match(parts[2].strip()) or not 1 <= int(parts[2]) <= MAX_CASES:
@@ -113,7 +120,7 @@ def parse_param(spec: str) -> tuple[str, list]:
     try:
         values = [coerce_value(name, v) for v in raw]
     except ValueError as exc:
-        raise ValueError(f"--param {spec!r}: {exc}") from None
+        raise ValueError(f"--param {spec!r}: {exc}{_valid_range(name)}") from None
     if len(set(map(repr, values))) != len(values):
         raise ValueError(f"--param {spec!r}: repeated values")
     kinds = {type(v) for v in values}
