@@ -6,6 +6,7 @@ on stderr that names the option and its valid range, exit code 2, before any wor
   range, so that the range a message states is the range the script accepts;
 - :func:`output_json`, :func:`merge_target`: a JSON output path checked up front (the latter
   also: an existing file must hold a JSON object to merge into); :func:`merge_json` merges;
+- :func:`scratch_dir`: a folder for the script's own files, created when the arguments are read;
 - :func:`repo_path`: a default path relative to the repository's root, so that the scripts'
   defaults work from the root and from bench/ alike.
 """
@@ -133,6 +134,23 @@ def output_json(text: str) -> str:
         return check_output_file(text, "--json")
     except OutputPathError as exc:
         raise argparse.ArgumentTypeError(str(exc).partition(": ")[2] or str(exc)) from None
+
+
+def scratch_dir(text: str) -> str:
+    """A folder for a script's own files, created (with its parents) when the arguments are read,
+    so that a path that cannot be one is a one-line error before any work."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("empty path; give a directory")
+    if os.path.exists(text) and not os.path.isdir(text):
+        raise argparse.ArgumentTypeError(f"{text} is a file; give a directory")
+    try:
+        os.makedirs(text, exist_ok=True)
+    except OSError as exc:
+        raise argparse.ArgumentTypeError(f"cannot create the directory {text} "
+                                         f"({exc.strerror or type(exc).__name__})") from None
+    if not os.access(text, os.W_OK | os.X_OK):
+        raise argparse.ArgumentTypeError(f"the directory {text} is not writable")
+    return text
 
 
 def _read_object(path: str) -> dict:

@@ -62,9 +62,9 @@ def _called_as_now(advance):
 
 
 def main(argv=None) -> int:
-    ap = Parser(description=__doc__.splitlines()[0])
+    ap = Parser(description=" ".join(__doc__.split("\n\n")[0].split()))
     ap.add_argument("--ref", required=True, help="the git commit to compare with (e.g. 6a61db0)")
-    ap.add_argument("--repeats", type=positive_int, default=5)
+    ap.add_argument("--repeats", type=positive_int, default=5, help="interleaved runs of each module; the minimum time counts (default 5)")
     ap.add_argument("--cells", type=int_in(4), default=None,
                     help="cells, in [4, inf) (default: the bed's default, 200)")
     ap.add_argument("--json", type=merge_target, default=None, help="merge the result into this JSON file")

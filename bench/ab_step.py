@@ -43,10 +43,10 @@ def _load_ref(ref, tmp):
 
 
 def main(argv=None) -> int:
-    ap = Parser(description=__doc__.splitlines()[0])
+    ap = Parser(description=" ".join(__doc__.split("\n\n")[0].split()))
     ap.add_argument("--ref", required=True, help="the earlier commit (any git revision)")
     ap.add_argument("--ppd", type=positive_int, default=40, help="grid points per diameter (default 40)")
-    ap.add_argument("--scheme", default="seed", help="scheme preset (default seed)")
+    ap.add_argument("--scheme", default="seed", choices=("seed", "accurate"), help="scheme preset (default seed)")
     ap.add_argument("--repeats", type=positive_int, default=15, help="timed repeats per state (default 15)")
     ap.add_argument("--steps", type=positive_int, default=50, help="steps per repeat (default 50)")
     args = ap.parse_args(argv)

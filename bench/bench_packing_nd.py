@@ -86,8 +86,8 @@ def main(argv=None):
     ap.add_argument("--sizes", type=int_in(32), nargs="+", default=[64, 128],
                     help="grid sizes n, in [32, inf) (the bed fills the lower half; a smaller box lets the "
                          "expanding top reach the domain's top within the timed steps)")
-    ap.add_argument("--steps", type=int_in(1), default=3)
-    ap.add_argument("--repeats", type=int_in(1), default=5)
+    ap.add_argument("--steps", type=int_in(1), default=3, help="SSP-RK3 steps timed per repeat, after one warm-up step (default 3)")
+    ap.add_argument("--repeats", type=int_in(1), default=5, help="interleaved 1- and 2-thread pairs; medians over them (default 5)")
     args = ap.parse_args(argv)
     folder = os.path.dirname(os.path.abspath(args.json))
     if not os.path.isdir(folder):

@@ -120,7 +120,8 @@ def cost_at(err, errs, costs):
 
 def main(argv=None):
     ap = Parser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", type=output_json, default=repo_path("bench/results_schemes.json"))
+    ap.add_argument("--json", type=output_json, default=repo_path("bench/results_schemes.json"),
+                    help="JSON file written (default bench/results_schemes.json)")
     ap.add_argument("--quick", action="store_true", help="one timing per run, no chaos floor, grids 5-20")
     args = ap.parse_args(argv)
     numba.set_num_threads(1)

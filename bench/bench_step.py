@@ -266,7 +266,8 @@ def _cpu_model() -> str:
 
 def main(argv=None):
     ap = Parser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", type=output_json, default=repo_path("bench/results.json"))
+    ap.add_argument("--json", type=output_json, default=repo_path("bench/results.json"),
+                    help="JSON file written (default bench/results.json)")
     ap.add_argument("--repeats", type=positive_int, default=5, help="timed repeats per case (median)")
     ap.add_argument("--quick", action="store_true", help="fewer steps and repeats, 20/200 spheres only")
     args = ap.parse_args(argv)

@@ -76,7 +76,8 @@ def run_bed(gamma, restitution, ppd, cycles=11, n=2000, side=13.0, d=0.005, rho_
 
 def main(argv=None):
     ap = Parser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--gammas", type=positive_float, nargs="+", default=[1.5, 3.0, 4.0])
+    ap.add_argument("--gammas", type=positive_float, nargs="+", default=[1.5, 3.0, 4.0],
+                    help="Γ = aω²/g of the runs; LIGGGHTS's numbers shown where it has a run at that Γ (default 1.5 3 4)")
     ap.add_argument("--restitution", type=float, choices=(0.9, 0.5), default=0.9,
                     help="0.9 (main LIGGGHTS runs) or 0.5 (the LIGGGHTS runs' values)")
     ap.add_argument("--ppd", type=positive_int, default=10, help="material points per layer")

@@ -58,7 +58,8 @@ def material_line_errors(cells_per_diameter: int) -> dict:
 
 def main(argv=None):
     ap = Parser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--cells-per-diameter", type=list_of(positive_int), default=[2, 4, 8])
+    ap.add_argument("--cells-per-diameter", type=list_of(positive_int), default=[2, 4, 8],
+                    help="grid resolutions, cells per sphere diameter, comma-separated (default 2,4,8)")
     ap.add_argument("--json", type=output_json, default=None, help="write the numbers to this JSON file")
     args = ap.parse_args(argv)
     rows = []

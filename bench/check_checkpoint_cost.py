@@ -19,20 +19,20 @@ import time
 
 import numpy as np
 
-from _args import Parser, int_in
+from _args import Parser, int_in, scratch_dir
 
 
 def main(argv=None) -> int:
     ap = Parser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeats", type=int_in(1), default=7, help="runs per setting (default 7)")
-    ap.add_argument("--dir", default=os.path.join("out", "checkpoint_cost"), help="scratch directory")
+    ap.add_argument("--dir", type=scratch_dir, default=os.path.join("out", "checkpoint_cost"),
+                    help="scratch directory, created if missing (default out/checkpoint_cost)")
     args = ap.parse_args(argv)
     from bsrflow.io.checkpoint import Checkpoint, write_checkpoint
     from bsrflow.io.config import Config
     from bsrflow.io.netcdf import read_snapshots
     from bsrflow.io.runner import run_config
 
-    os.makedirs(args.dir, exist_ok=True)
     on = Config.default()
     off = on.with_overrides({"run.checkpoint_every": 0.0})
     print(f"default config: {on.checkpoint_times().size} checkpoints every {on.checkpoint_interval():g} s; "

@@ -27,7 +27,7 @@ from _args import Parser, positive_float, positive_int  # noqa: E402
 def main(argv=None) -> int:
     ap = Parser(description=__doc__.splitlines()[0])
     ap.add_argument("--ppd", type=positive_int, default=10, help="grid points per diameter (default 10)")
-    ap.add_argument("--scheme", default="seed", help="scheme preset (default seed)")
+    ap.add_argument("--scheme", default="seed", choices=("seed", "accurate"), help="scheme preset (default seed)")
     ap.add_argument("--t-end", type=positive_float, default=2.0, help="simulated time [s] (default 2.0)")
     args = ap.parse_args(argv)
     s = ColumnSetup(points_per_diameter=args.ppd).with_(t_end=args.t_end)

@@ -137,8 +137,10 @@ def main(argv=None):
     names = [c["name"] for c in PACKING_CASES]
     ap = Parser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--case", default="d22mm_a1.5", choices=names, metavar="NAME", help="one of: " + ", ".join(names))
-    ap.add_argument("--ppd", type=int_in(2), nargs="+", default=[5, 10, 20, 40])
-    ap.add_argument("--widths", type=float_in(0.0, 1.0, hi_open=True), nargs="+", default=[0.0, 0.1, 0.3])
+    ap.add_argument("--ppd", type=int_in(2), nargs="+", default=[5, 10, 20, 40],
+                    help="points per diameter of the local-limit runs (default 5 10 20 40)")
+    ap.add_argument("--widths", type=float_in(0.0, 1.0, hi_open=True), nargs="+", default=[0.0, 0.1, 0.3],
+                    help="half-widths [d] of the nonlocal try's triangular weight, each in [0, 1) (default 0 0.1 0.3)")
     args = ap.parse_args(argv)
     s = case_setup(next(c for c in PACKING_CASES if c["name"] == args.case), formulation="lagrangian", range_over_d=0.0,
                    save_every=0.0005)

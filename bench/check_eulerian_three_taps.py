@@ -28,9 +28,10 @@ def tap_maxima(t, top, setup) -> list[float]:
 
 
 def main(argv=None) -> int:
-    ap = Parser(description=__doc__.splitlines()[0])
+    ap = Parser(description=" ".join(__doc__.split("\n\n")[0].split()))
     ap.add_argument("--ppd", type=list_of(positive_int), default=[5, 10, 20], help="cells per diameter")
-    ap.add_argument("--formulation", choices=("eulerian", "lagrangian"), default="eulerian")
+    ap.add_argument("--formulation", choices=("eulerian", "lagrangian"), default="eulerian",
+                    help="the packing continuum's formulation (default eulerian)")
     args = ap.parse_args(argv)
     base = ColumnSetup(kernel_name="packing", formulation=args.formulation, a_over_d=0.75, n_taps=3, t_end=2.5)
     try:                                   # every grid checked before the work starts

@@ -23,8 +23,8 @@ from bsrflow.physics.dem import DEMColumn, run_dem
 
 def main(argv=None):
     ap = Parser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--a-over-d", type=positive_float, default=1.5)
-    ap.add_argument("--ppd", type=positive_int, default=20)
+    ap.add_argument("--a-over-d", type=positive_float, default=1.5, help="tap amplitude over d (default 1.5)")
+    ap.add_argument("--ppd", type=positive_int, default=20, help="the continuum's points per diameter (default 20)")
     ap.add_argument("--at", type=positive_float, default=0.46, help="time [s] after the tap's end (0.45 s)")
     ap.add_argument("--range", type=float, default=0.0, help="R/d of the packing interaction (default 0, local)")
     args = ap.parse_args(argv)

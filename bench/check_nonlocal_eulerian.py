@@ -375,8 +375,9 @@ def main(argv=None):
     names = [c["name"] for c in PACKING_CASES]
     ap = Parser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--case", default="d22mm_a1.0", choices=names, metavar="NAME", help="one of: " + ", ".join(names))
-    ap.add_argument("--ppd", type=int_in(2), nargs="+", default=[5, 10, 20])
-    ap.add_argument("--cap", type=float_in(0.0, lo_open=True), default=1.0)
+    ap.add_argument("--ppd", type=int_in(2), nargs="+", default=[5, 10, 20], help="points per diameter (default 5 10 20)")
+    ap.add_argument("--cap", type=float_in(0.0, lo_open=True), default=1.0,
+                    help="cap of the HLLE wave speeds, in ω_max Δx/2 (default 1)")
     ap.add_argument("--bulk", type=float_in(0.0, 1.0), default=1.0,
                     help="dissipation in the packed bulk, 1 = HLLE (the trial), 0 = central flux (default 1)")
     ap.add_argument("--restitution", type=float_in(0.0, 1.0, lo_open=True), default=None,

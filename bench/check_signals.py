@@ -19,14 +19,20 @@ import subprocess
 import sys
 import time
 
-from _args import Parser
+from _args import Parser, float_in
+
+
+# the commands that run with no arguments and write no file (the others need a file, or write one)
+_COMMANDS = ("energy", "verify", "stability")
 
 
 def main() -> int:
     ap = Parser(description=__doc__.splitlines()[0])
-    ap.add_argument("--commands", nargs="+", default=["energy", "verify"])
-    ap.add_argument("--delays", nargs="+", type=float, default=[0.3, 0.8, 1.5, 2.5, 4.0, 6.0])
-    ap.add_argument("--handler-after", type=float, default=1.0, metavar="S",
+    ap.add_argument("--commands", nargs="+", default=["energy", "verify"], choices=_COMMANDS,
+                    help="bsrflow commands to signal, run without arguments (default energy verify)")
+    ap.add_argument("--delays", nargs="+", type=float_in(0.0, 600.0), default=[0.3, 0.8, 1.5, 2.5, 4.0, 6.0],
+                    metavar="S", help="seconds from the start to the signal (default 0.3 0.8 1.5 2.5 4 6)")
+    ap.add_argument("--handler-after", type=float_in(0.0, 600.0), default=1.0, metavar="S",
                     help="count only delays of at least S seconds (default 1)")
     args = ap.parse_args()
     ok = total = 0

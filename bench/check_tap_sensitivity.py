@@ -33,10 +33,11 @@ def main(argv=None):
     ap = Parser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--case", default="d22mm_a1.0_three_taps", choices=names, metavar="NAME",
                     help="one of: " + ", ".join(names))
-    ap.add_argument("--runs", type=positive_int, default=12)
-    ap.add_argument("--ppd", type=positive_int, default=10)
-    ap.add_argument("--profile", default="seed", choices=("seed", "constant"))
-    ap.add_argument("--json", type=output_json, default=None)
+    ap.add_argument("--runs", type=positive_int, default=12, help="runs, all but the first with perturbed bond weights (default 12)")
+    ap.add_argument("--ppd", type=positive_int, default=10, help="points per diameter (default 10)")
+    ap.add_argument("--profile", default="seed", choices=("seed", "constant"),
+                    help="the bond weights' profile (default seed, the package's)")
+    ap.add_argument("--json", type=output_json, default=None, help="JSON file written (default: none)")
     args = ap.parse_args(argv)
     case = next(c for c in PACKING_CASES if c["name"] == args.case)
     s = case_setup(case, ColumnSetup(points_per_diameter=args.ppd), formulation="lagrangian", range_over_d=1.0)

@@ -30,9 +30,10 @@ CONSTANTS = (dict(m0=406.0, kernel_dissipation=0.9), dict(m0=179.0, kernel_dissi
 
 def main(argv=None):
     ap = Parser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--scheme", default="accurate", choices=("seed", "accurate"))
+    ap.add_argument("--scheme", default="accurate", choices=("seed", "accurate"), help="scheme preset (default accurate)")
     ap.add_argument("--ppd", type=list_of(positive_int), default=[10, 20, 40], help="points per diameter, comma-separated")
-    ap.add_argument("--json", type=output_json, default=repo_path("out/check_taps.json"))
+    ap.add_argument("--json", type=output_json, default=repo_path("out/check_taps.json"),
+                    help="JSON file written (default out/check_taps.json)")
     args = ap.parse_args(argv)
     numba.set_num_threads(1)
     rows, failed = [], 0

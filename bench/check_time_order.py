@@ -30,7 +30,7 @@ from _args import Parser, list_of, positive_int  # noqa: E402
 
 def main(argv=None) -> int:
     ap = Parser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scheme", default="accurate", help="scheme preset (default accurate)")
+    ap.add_argument("--scheme", default="accurate", choices=("seed", "accurate"), help="scheme preset (default accurate)")
     ap.add_argument("--stepper", default=None, choices=sorted(STEPPERS),
                     help="Runge-Kutta stepper (default: the preset's)")
     ap.add_argument("--steps", type=list_of(positive_int), default="64,128,256,512",

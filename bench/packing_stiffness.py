@@ -38,13 +38,15 @@ def _peak(run, s):
 
 def main(argv=None):
     ap = Parser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", type=output_json, default=repo_path("bench/results_packing_stiffness.json"))
-    ap.add_argument("--formulation", default="lagrangian", choices=("eulerian", "lagrangian"))
+    ap.add_argument("--json", type=output_json, default=repo_path("bench/results_packing_stiffness.json"),
+                    help="JSON file written (default bench/results_packing_stiffness.json)")
+    ap.add_argument("--formulation", default="lagrangian", choices=("eulerian", "lagrangian"),
+                    help="the packing continuum's formulation (default lagrangian)")
     ap.add_argument("--range", type=float, default=None, help="R/d (default: the formulation's)")
-    ap.add_argument("--ppd", type=positive_int, default=10)
+    ap.add_argument("--ppd", type=positive_int, default=10, help="points per diameter (default 10)")
     ap.add_argument("--mach", type=list_of(float_in(0.0, 1.0, lo_open=True)), default=[0.003, 0.01, 0.03],
                     help="Mach numbers, comma-separated, each in (0, 1]")
-    ap.add_argument("--cases", default="all")
+    ap.add_argument("--cases", default="all", help="comma-separated case names of the packing comparison, or all (default)")
     args = ap.parse_args(argv)
     known = {c["name"]: c for c in PACKING_CASES}
     names = list(known) if args.cases == "all" else args.cases.split(",")

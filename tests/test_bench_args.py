@@ -54,6 +54,16 @@ def _refused(script, *argv, cwd=BENCH):
     ("check_bed_1d.py", ["--restitution", "0.7"], ["--restitution", "0.9, 0.5"]),
     ("scan_kutta4.py", ["--perturb", "0.01"], ["--perturb", "[0, 0.001]"]),
     ("check_face_wave_speed.py", ["--no-such-option"], ["unrecognized arguments"]),
+    # an audit of 2026-12-06: tracebacks (a scheme preset, a sleep) and an orphaned child before them
+    ("check_time_order.py", ["--scheme", "bogus"], ["--scheme", "'bogus'", "seed, accurate"]),
+    ("check_density_floor.py", ["--scheme", "bogus"], ["--scheme", "seed, accurate"]),
+    ("ab_step.py", ["--ref", "HEAD", "--scheme", "bogus"], ["--scheme", "seed, accurate"]),
+    ("check_signals.py", ["--delays", "-1"], ["--delays", "[0, 600]"]),
+    ("check_signals.py", ["--delays", "nan"], ["--delays", "[0, 600]"]),
+    ("check_signals.py", ["--handler-after", "abc"], ["--handler-after", "[0, 600]"]),
+    ("check_signals.py", ["--commands", "bogus"], ["--commands", "energy, verify, stability"]),
+    ("check_kill_rate.py", ["--dir", "/proc/no/such/dir"], ["--dir", "cannot create the directory"]),
+    ("check_checkpoint_cost.py", ["--dir", "/proc/no/such/dir"], ["--dir", "cannot create the directory"]),
 ])
 def test_a_bad_value_is_one_line_naming_the_range(script, argv, texts):
     err = _refused(script, *argv)
@@ -142,3 +152,30 @@ def test_a_merge_that_fails_at_the_end_keeps_the_results(tmp_path, capsys):
     err = capsys.readouterr().err
     assert len(err.splitlines()) == 1 and alt in err and str(target) in err, err
     assert _args.merge_json(str(target), "k", {"x": 3}) != alt         # never overwrites an earlier one
+
+
+def test_a_scratch_dir_that_is_a_file_is_refused_and_a_new_one_is_made(tmp_path):
+    """``--dir`` of the kill-rate and checkpoint-cost scripts: a file is refused in one line; a
+    missing folder (with its parents) is created when the arguments are read."""
+    f = tmp_path / "file.txt"
+    f.write_text("x")
+    assert "is a file" in _refused("check_kill_rate.py", "--dir", str(f))
+    new = tmp_path / "a" / "b"
+    assert _args.scratch_dir(str(new)) == str(new) and new.is_dir()
+    with pytest.raises(argparse.ArgumentTypeError, match="empty path"):
+        _args.scratch_dir(" ")
+
+
+def test_every_bench_script_describes_itself_and_every_option():
+    """``--help`` of every script: exit 0, a description that does not stop mid-sentence (the
+    first paragraph of the docstring, not its first line) and a help text for every option."""
+    import ast
+    for path in sorted(BENCH.glob("*.py")):
+        if path.name.startswith("_"):
+            continue
+        tree = ast.parse(path.read_text())
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Call) and getattr(node.func, "attr", "") == "add_argument":
+                assert any(k.arg == "help" for k in node.keywords), (path.name, node.lineno)
+        assert "__doc__.splitlines()[0]" not in path.read_text() or \
+            path.read_text().split('"""')[1].splitlines()[0].rstrip().endswith((".", "?", ":", ")")), path.name
