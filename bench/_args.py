@@ -6,7 +6,8 @@ on stderr that names the option and its valid range, exit code 2, before any wor
   range, so that the range a message states is the range the script accepts;
 - :func:`output_json`, :func:`merge_target`: a JSON output path checked up front (the latter
   also: an existing file must hold a JSON object to merge into); :func:`merge_json` merges;
-- :func:`scratch_dir`: a folder for the script's own files, created when the arguments are read;
+- :func:`scratch_dir`, :func:`make_scratch_dir`: a folder for the script's own files, checked
+  with the arguments and created once they are all read;
 - :func:`repo_path`: a default path relative to the repository's root, so that the scripts'
   defaults work from the root and from bench/ alike.
 """
@@ -137,20 +138,34 @@ def output_json(text: str) -> str:
 
 
 def scratch_dir(text: str) -> str:
-    """A folder for a script's own files, created (with its parents) when the arguments are read,
-    so that a path that cannot be one is a one-line error before any work."""
+    """A folder for a script's own files (argument type): an existing writable folder, or a
+    missing one whose nearest existing parent is a writable folder. Nothing is created here
+    (argparse also applies this to the default, and a later bad argument must leave no folder
+    behind): :func:`make_scratch_dir` creates it once every argument is read."""
     if not text.strip():
         raise argparse.ArgumentTypeError("empty path; give a directory")
-    if os.path.exists(text) and not os.path.isdir(text):
-        raise argparse.ArgumentTypeError(f"{text} is a file; give a directory")
-    try:
-        os.makedirs(text, exist_ok=True)
-    except OSError as exc:
-        raise argparse.ArgumentTypeError(f"cannot create the directory {text} "
-                                         f"({exc.strerror or type(exc).__name__})") from None
-    if not os.access(text, os.W_OK | os.X_OK):
-        raise argparse.ArgumentTypeError(f"the directory {text} is not writable")
+    if os.path.exists(text):
+        if not os.path.isdir(text):
+            raise argparse.ArgumentTypeError(f"{text} is a file; give a directory")
+        if not os.access(text, os.W_OK | os.X_OK):
+            raise argparse.ArgumentTypeError(f"the directory {text} is not writable")
+        return text
+    parent = os.path.dirname(os.path.abspath(text))
+    while not os.path.exists(parent):
+        parent = os.path.dirname(parent)
+    if not os.path.isdir(parent) or not os.access(parent, os.W_OK | os.X_OK):
+        raise argparse.ArgumentTypeError(f"cannot create the directory {text}: {parent} is not a writable folder")
     return text
+
+
+def make_scratch_dir(parser: argparse.ArgumentParser, path: str) -> str:
+    """Create the folder ``path`` (checked by :func:`scratch_dir`) with its parents, after the
+    arguments are read and before any work; a failure is the parser's one-line error."""
+    try:
+        os.makedirs(path, exist_ok=True)
+    except OSError as exc:
+        parser.error(f"argument --dir: cannot create the directory {path} ({exc.strerror or type(exc).__name__})")
+    return path
 
 
 def _read_object(path: str) -> dict:

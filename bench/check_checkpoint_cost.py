@@ -19,15 +19,16 @@ import time
 
 import numpy as np
 
-from _args import Parser, int_in, scratch_dir
+from _args import Parser, int_in, make_scratch_dir, scratch_dir
 
 
 def main(argv=None) -> int:
     ap = Parser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeats", type=int_in(1), default=7, help="runs per setting (default 7)")
     ap.add_argument("--dir", type=scratch_dir, default=os.path.join("out", "checkpoint_cost"),
-                    help="scratch directory, created if missing (default out/checkpoint_cost)")
+                    help="scratch directory, created (with its parents) if missing (default out/checkpoint_cost)")
     args = ap.parse_args(argv)
+    make_scratch_dir(ap, args.dir)
     from bsrflow.io.checkpoint import Checkpoint, write_checkpoint
     from bsrflow.io.config import Config
     from bsrflow.io.netcdf import read_snapshots

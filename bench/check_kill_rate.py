@@ -30,7 +30,7 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _args import Parser, positive_int, scratch_dir  # noqa: E402
+from _args import Parser, make_scratch_dir, positive_int, scratch_dir  # noqa: E402
 
 WRITER = textwrap.dedent("""
     import sys
@@ -61,9 +61,10 @@ def main(argv=None) -> int:
     ap = Parser(description=__doc__.splitlines()[0])
     ap.add_argument("--kills", type=positive_int, default=160, help="number of writers to kill (default 160)")
     ap.add_argument("--dir", type=scratch_dir, default="out/kill_rate",
-                    help="where the files go, created if missing (default out/kill_rate)")
+                    help="where the files go, created (with its parents) if missing (default out/kill_rate)")
     ap.add_argument("--seed", type=int, default=11, help="seed of the kill moments (default 11)")
     args = ap.parse_args(argv)
+    make_scratch_dir(ap, args.dir)
     rnd = random.Random(args.seed)
     incomplete_last = 0
     broken = 0

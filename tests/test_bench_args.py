@@ -161,14 +161,27 @@ def test_a_scratch_dir_that_is_a_file_is_refused_and_a_new_one_is_made(tmp_path)
     f.write_text("x")
     assert "is a file" in _refused("check_kill_rate.py", "--dir", str(f))
     new = tmp_path / "a" / "b"
-    assert _args.scratch_dir(str(new)) == str(new) and new.is_dir()
+    assert _args.scratch_dir(str(new)) == str(new) and not (tmp_path / "a").exists()   # checked, not made
+    assert _args.make_scratch_dir(_args.Parser(prog="x"), str(new)) == str(new) and new.is_dir()
     with pytest.raises(argparse.ArgumentTypeError, match="empty path"):
         _args.scratch_dir(" ")
 
 
+@pytest.mark.parametrize("script, argv", [
+    ("check_kill_rate.py", ["--bogus"]), ("check_kill_rate.py", ["--dir", "{tmp}/a/x", "--kills", "0"]),
+    ("check_checkpoint_cost.py", ["--dir", "{tmp}/a/x", "--repeats", "0"]),
+])
+def test_a_refused_command_line_leaves_no_folder(script, argv, tmp_path):
+    """argparse also types the default ``--dir``: a bad argument after it must not leave
+    ``out/...`` (or the given folder) behind."""
+    err = _refused(script, *[a.replace("{tmp}", str(tmp_path)) for a in argv], cwd=tmp_path)
+    assert err and not (tmp_path / "out").exists() and not (tmp_path / "a").exists()
+
+
 def test_every_bench_script_describes_itself_and_every_option():
-    """``--help`` of every script: exit 0, a description that does not stop mid-sentence (the
-    first paragraph of the docstring, not its first line) and a help text for every option."""
+    """Read from the sources (running 32 ``--help`` would cost a minute of imports): every option
+    of every script has a help text, and a description taken from the docstring's first line is
+    a whole sentence (the others take its whole first paragraph)."""
     import ast
     for path in sorted(BENCH.glob("*.py")):
         if path.name.startswith("_"):

@@ -563,6 +563,8 @@ def test_an_empty_config_is_refused_pointing_at_init(tmp_path, capsys, text):
      "bsrflow compare: error: unrecognized arguments: --ou out (options are not abbreviated;"),
     (["run", "x.toml", "a.nc", "extra"], "bsrflow run: error: unrecognized arguments: a.nc extra (`bsrflow run --help`"),
     (["--bogus"], "bsrflow: error: unrecognized arguments: --bogus (options are not abbreviated;"),
+    (["--bogus", "run", "x.toml"], "bsrflow: error: unrecognized arguments: --bogus (options"),
+    (["--vers"], "bsrflow: error: unrecognized arguments: --vers (options are not abbreviated;"),
 ])
 def test_unrecognized_arguments_name_the_command_and_say_abbreviations_are_refused(argv, expected, capsys):
     """An abbreviated option (`--ou` for `--out`) was refused by a line that named neither the

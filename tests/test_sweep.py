@@ -368,6 +368,11 @@ def test_sweep_refuses_checkpoint_every_from_its_config_file(tmp_path, capsys):
     ("n_spheres=abc", "n_spheres = 'abc' is not an integer; valid range [2, 100000] (integers)"),
     ("a_over_d=x:1:3", "START and STOP must be numbers; valid range [0, 20]"),
     ("f=10,abc", "f = 'abc' is not a number; valid range [0.001, 10000] Hz"),
+    ("tap.f=abc", "tap.f = 'abc' is not a number; valid range [0.001, 10000] Hz"),
+    ("column.N=abc", "column.N = 'abc' is not an integer; valid range [2, 100000] (integers)"),
+    ("model.eps=abc", "model.eps = 'abc' is not a number; valid range [0, 1)"),
+    ("scheme=x:1:3", "START and STOP must be numbers"),              # a word field: no numeric range
+    ("impulses=abc", "impulses = 'abc' is not true or false"),
 ])
 def test_a_value_that_is_not_a_number_names_the_parameters_valid_range(spec, expected):
     """`--param NAME=abc` named no range while an out-of-range number did (an audit, 2026-12-06)."""

@@ -99,6 +99,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMAND_MODULES:
         importlib.import_module(name).add_parser(sub)
+    parser.allow_abbrev = False                 # `bsrflow --vers` is not --version either
     for command_parser in sub.choices.values():
         # no abbreviated options: `--ou b.nc` after `--out a.nc` would set --out twice past the
         # "given twice" check (argparse keeps the last), and an abbreviation that a later option
@@ -165,7 +166,9 @@ def _main(argv) -> int:
     args, unknown = parser.parse_known_args(argv)
     if unknown:
         command = getattr(args, "command", None)
-        where = f"bsrflow {command}" if command else "bsrflow"
+        at = argv.index(command) if command in argv else len(argv)
+        before = any(w in argv[:at] for w in unknown)       # words before the command are bsrflow's
+        where = f"bsrflow {command}" if command and not before else "bsrflow"
         hint = "options are not abbreviated; " if any(w.startswith("--") for w in unknown) else ""
         print(f"{where}: error: unrecognized arguments: {' '.join(unknown)} ({hint}`{where} --help` lists "
               f"what it takes)", file=sys.stderr)

@@ -82,45 +82,70 @@ def _residuals(setup, dem, m0, eps):
     return np.concatenate([rc, rt]) / math.sqrt(t_d.size)
 
 
-def compass_search(cost, x0, step, lower, upper, min_step, max_evals):
+def compass_search(cost, x0, step, lower, upper, min_step, max_evals, f0=None):
     """Minimise ``cost(x)`` by a compass (coordinate pattern) search; returns (x, cost, evals).
 
     From x, poll x ± h_k e_k for each coordinate k in a fixed order (+ before −, k ascending),
     skipping points outside [lower, upper]; move to the lowest polled point if it is lower than
-    x (ties keep the first), otherwise halve every h_k. Stop when every h_k < min_step_k or after
-    ``max_evals`` evaluations of ``cost`` (x0 included; a point is never evaluated twice). The end
-    point depends only on the values ``cost`` returns, so it does not move with the version of an
-    optimisation library. ``cost`` may return ``inf`` for a failed point."""
-    x = np.asarray(x0, dtype=float)
-    h = np.asarray(step, dtype=float).copy()
-    lower, upper, min_step = (np.asarray(v, dtype=float) for v in (lower, upper, min_step))
+    x (ties keep the first), otherwise halve every h_k; stop when every h_k < min_step_k, or
+    when ``max_evals`` calls of ``cost`` are spent (then only points already known are polled).
+    The points lie on the lattice x0 + n_k u_k (n_k integers, u_k the last step polled), each
+    computed afresh from its integers, so that a point reached twice (a step back) is the same
+    number and is never evaluated twice. ``f0``: the cost of x0 when the caller has it (not
+    evaluated again, not counted). The end point depends only on the values ``cost`` returns,
+    not on an optimisation library. ``cost`` may return inf (or NaN, taken as inf) for a point
+    that failed."""
+    x0 = np.asarray(x0, dtype=float)
+    step, lower, upper, min_step = (np.asarray(v, dtype=float) for v in (step, lower, upper, min_step))
+    if not (np.all(step > 0) and np.all(min_step > 0) and np.all(np.isfinite(step))):
+        raise ValueError("compass_search: step and min_step must be finite and > 0")
+    if not np.all((lower <= x0) & (x0 <= upper)):
+        raise ValueError(f"compass_search: x0 = {x0.tolist()} is outside [lower, upper]")
+    if int(max_evals) < 1:
+        raise ValueError(f"compass_search: max_evals = {max_evals!r} must be ≥ 1")
+    levels = 1                                  # step sizes polled: step / 2^j, j < levels
+    while np.any(step / 2.0 ** levels >= min_step):
+        levels += 1
+    unit = step / 2.0 ** (levels - 1)
     seen = {}
+    calls = 0
 
-    def value(p):
-        key = tuple(float(v) for v in p)
-        if key not in seen:
-            seen[key] = float(cost(p))
-        return seen[key]
+    def point(n):
+        return x0 + np.asarray(n, dtype=float) * unit
 
-    fx = value(x)
-    while len(seen) < max_evals and np.any(h >= min_step):
-        best = None
-        for k in range(x.size):
-            for sign in (1.0, -1.0):
-                p = x.copy()
-                p[k] += sign * h[k]
-                if p[k] < lower[k] or p[k] > upper[k]:
-                    continue
-                if len(seen) >= max_evals and tuple(float(v) for v in p) not in seen:
-                    continue                              # the budget is spent: only known points
-                fp = value(p)
-                if fp < fx and (best is None or fp < best[1]):
-                    best = (p, fp)
-        if best is None:
-            h = h / 2.0
-        else:
-            x, fx = best
-    return x, fx, len(seen)
+    def value(n):
+        nonlocal calls
+        if n not in seen:
+            calls += 1
+            v = float(cost(point(n)))
+            seen[n] = math.inf if math.isnan(v) else v
+        return seen[n]
+
+    n = (0,) * x0.size
+    if f0 is not None:
+        seen[n] = math.inf if math.isnan(float(f0)) else float(f0)
+    fx = value(n) if calls < max_evals or n in seen else math.inf
+    for level in range(levels):
+        stride = 2 ** (levels - 1 - level)
+        while True:
+            best = None
+            for k in range(x0.size):
+                for sign in (1, -1):
+                    m = list(n)
+                    m[k] += sign * stride
+                    m = tuple(m)
+                    p = point(m)
+                    if p[k] < lower[k] or p[k] > upper[k]:
+                        continue
+                    if calls >= max_evals and m not in seen:
+                        continue                      # the budget is spent: only known points
+                    fm = value(m)
+                    if fm < fx and (best is None or fm < best[1]):
+                        best = (m, fm)
+            if best is None:
+                break                                 # no lower neighbour at this step: halve it
+            n, fx = best
+    return point(n), fx, calls
 
 
 def calibrate(setup: ColumnSetup, dem, log=print, grid_m0=None, grid_eps=(0.1, 0.4, 0.7, 0.9)):
@@ -131,8 +156,11 @@ def calibrate(setup: ColumnSetup, dem, log=print, grid_m0=None, grid_eps=(0.1, 0
     H = sqrt(2 λ R³ M / (3 g)) with λ = K/(m m0), so its mass centre H/3 is 10 d (the DEM's) at
     m0 ≈ 450 kg, 17 d at 150 kg and 4 d at 3000 kg; stiffer kernels are also the costly ones
     (taller domain, smaller steps). The refinement is ``compass_search`` over (ln m0, ε) from
-    the grid's best point: first steps 0.2 in ln m0 and 0.05 in ε, halved down to 0.002 and
-    0.0005, within ln m0 ∈ [ln 20, ln 1e5] and ε ∈ [0, 0.9], at most 60 runs."""
+    the grid's best point (its cost passed in, not run again): steps 0.2 in ln m0 and 0.05 in ε,
+    halved while at least 0.002 and 0.0005 (the last polled 0.003125 and 0.00078125), within
+    ln m0 ∈ [ln 20, ln 1e5] and ε ∈ [0, 0.9], at most 60 runs. A run that stops, or whose cost is
+    not finite, counts as infinitely bad; at the grid's point the result is the grid's m0
+    itself (not exp(ln m0))."""
     if grid_m0 is None:
         grid_m0 = np.geomspace(150.0, 3000.0, 8)
     best = None
@@ -144,6 +172,8 @@ def calibrate(setup: ColumnSetup, dem, log=print, grid_m0=None, grid_eps=(0.1, 0
             if r is None:
                 continue
             cost = float(r @ r)
+            if not math.isfinite(cost):
+                continue
             if best is None or cost < best[0]:
                 best = (cost, m0, eps)
     if best is None:
@@ -157,10 +187,11 @@ def calibrate(setup: ColumnSetup, dem, log=print, grid_m0=None, grid_eps=(0.1, 0
         r = _residuals(setup, dem, math.exp(p[0]), p[1])
         return math.inf if r is None else float(r @ r)
 
-    x, fx, n = compass_search(cost, [math.log(best[1]), best[2]], step=[0.2, 0.05],
-                              lower=[math.log(20.0), 0.0], upper=[math.log(1e5), 0.9],
-                              min_step=[0.002, 0.0005], max_evals=60)
-    m0, eps = float(math.exp(x[0])), float(x[1])
+    x0 = np.array([math.log(best[1]), best[2]])
+    x, fx, n = compass_search(cost, x0, step=[0.2, 0.05], lower=[math.log(20.0), 0.0], upper=[math.log(1e5), 0.9],
+                              min_step=[0.002, 0.0005], max_evals=60, f0=best[0])
+    m0 = float(best[1]) if x[0] == x0[0] else float(math.exp(x[0]))
+    eps = float(x[1])
     rms = math.sqrt(fx / 2.0)          # the residual vector holds both trajectories: mean over 2 n_t
     if log:
         log(f"  calibration refined: m0 = {m0:.4g} kg, eps = {eps:.4f}, rms residual = {rms:.3f} d "

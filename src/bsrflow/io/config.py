@@ -253,11 +253,17 @@ def _short_names() -> dict[str, str]:
 _SHORT = _short_names()
 
 
-def field_range(key: str) -> str | None:
-    """The valid range (with units) of the config field ``key`` (dotted, short or alias), as the
-    config's errors state it; None for a key that names no field."""
-    f = _BY_NAME.get(_SHORT.get(key, key))
-    return None if f is None else f.range_text()
+def field_range(key: str, numeric: bool = False) -> str | None:
+    """The valid range (with units) of the config field ``key`` (dotted, short, alias, a
+    ColumnSetup name, or any table prefix before a short name: ``tap.f``), as the config's errors
+    state it; None for a key that names no field (and, with ``numeric``, for one that is not a
+    number)."""
+    leaf = key.rpartition(".")[2]
+    for name in (key, _SHORT.get(key), _SETUP_NAMES.get(key), _SHORT.get(leaf), _SETUP_NAMES.get(leaf)):
+        f = _BY_NAME.get(name) if name else None
+        if f is not None:
+            return None if numeric and f.kind not in ("int", "float") else f.range_text()
+    return None
 
 
 def _suggest(word: str, candidates) -> str:

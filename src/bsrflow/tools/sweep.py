@@ -81,7 +81,7 @@ was building its case list for minutes without a word)."""
 def _valid_range(name: str) -> str:
     """"; valid range ..." for a parameter the config knows (its field's range), else ""."""
     mod = config_module()
-    rng = getattr(mod, "field_range", lambda key: None)(name) if mod is not None else None
+    rng = getattr(mod, "field_range", lambda key, numeric: None)(name, numeric=True) if mod is not None else None
     return f"; valid range {rng}" if rng else ""
 
 
