@@ -124,7 +124,7 @@ def compass_search(cost, x0, step, lower, upper, min_step, max_evals, f0=None):
     n = (0,) * x0.size
     if f0 is not None:
         seen[n] = math.inf if math.isnan(float(f0)) else float(f0)
-    fx = value(n) if calls < max_evals or n in seen else math.inf
+    fx = value(n)                                     # max_evals ≥ 1: x0 is always known
     for level in range(levels):
         stride = 2 ** (levels - 1 - level)
         while True:

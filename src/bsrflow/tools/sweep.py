@@ -47,7 +47,8 @@ import time
 import numpy as np
 
 from ..cli import Number, max_workers, workers_range
-from .setup_source import (SetupSource, canonical_name, check_given_once, check_no_run_outputs, coerce_value, config_module,
+from ..io.config import field_range
+from .setup_source import (SetupSource, canonical_name, check_given_once, check_no_run_outputs, coerce_value,
                            parameter_info, parse_value)
 from ..physics.column import continuum_label
 
@@ -79,9 +80,8 @@ was building its case list for minutes without a word)."""
 
 
 def _valid_range(name: str) -> str:
-    """"; valid range ..." for a parameter the config knows (its field's range), else ""."""
-    mod = config_module()
-    rng = getattr(mod, "field_range", lambda key, numeric: None)(name, numeric=True) if mod is not None else None
+    """"; valid range ..." for a numeric parameter the config knows (its field's range), else ""."""
+    rng = field_range(name, numeric=True)
     return f"; valid range {rng}" if rng else ""
 
 
