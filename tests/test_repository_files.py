@@ -11,6 +11,7 @@ comparison's JSON, is 1.5 MB) and a CHANGELOG entry written twice.
 from __future__ import annotations
 
 import collections
+import re
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -83,3 +84,40 @@ def test_no_changelog_entry_is_written_twice():
         if line and not line.startswith(("#", "- ", "  "))
     ]
     assert stray == []
+
+
+def _github_anchor(heading: str) -> str:
+    """GitHub's anchor of a Markdown heading: link markup dropped, lower case, punctuation but
+    hyphens removed, spaces as hyphens."""
+    text = re.sub(r"\[([^\]]*)\]\([^)]*\)", r"\1", heading.lstrip("#").strip()).lower()
+    return re.sub(r"[^\w\- ]", "", text).replace(" ", "-")
+
+
+def test_github_anchor_of_headings():
+    assert _github_anchor("## Schemes: `seed` and `accurate`") == "schemes-seed-and-accurate"
+    assert _github_anchor("## What differs (see [docs/model.md](docs/model.md))") == (
+        "what-differs-see-docsmodelmd")
+
+
+def test_markdown_links_inside_the_repository_resolve():
+    """Every relative link of README.md and docs/model.md names a file that exists, and every
+    #anchor a heading of that file."""
+    broken = []
+    for doc in ("README.md", "docs/model.md"):
+        path = ROOT / doc
+        for target in re.findall(r"\]\(([^)\s]+)\)", path.read_text(encoding="utf-8")):
+            if target.startswith(("http://", "https://", "mailto:")):
+                continue
+            file_part, _, anchor = target.partition("#")
+            linked = (path.parent / file_part).resolve() if file_part else path
+            if not linked.exists():
+                broken.append(f"{doc}: {target} (no such file)")
+                continue
+            if anchor:
+                headings = {
+                    _github_anchor(line) for line in linked.read_text(encoding="utf-8").splitlines()
+                    if line.startswith("#")
+                }
+                if anchor not in headings:
+                    broken.append(f"{doc}: {target} (no such heading)")
+    assert broken == []
