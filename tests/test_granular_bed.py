@@ -249,6 +249,7 @@ def test_compare_bed_command_writes_the_schema(tmp_path, capsys):
     mid_loss = 0.5 * (loss + np.roll(loss, -1))
     in_flight = cb_phase_window(np.asarray(budget["phase_mid"]), case["dem_takeoff_phase"], case["dem_landing_phase"],
                                 0.05)
+    assert in_flight.sum() >= 10
     np.testing.assert_allclose(diss[in_flight], mid_loss[in_flight], rtol=0.1)
     start = temp["start"]
     assert start["internal_energy_at_T_over_20_J"]["continuum"] > 0

@@ -462,7 +462,7 @@ def test_column_at_rest_stays_at_rest(formulation):
         shifts.append(centre() - c0)
     shifts = np.array(shifts)
     assert np.max(shifts) <= 1e-9 * D
-    assert np.min(shifts) >= -2.0 * d_s
+    assert -2.0 * d_s <= np.min(shifts) < -0.5 * d_s        # it does sink, by the static drop's size
     assert np.max(np.abs(shifts)) < 2e-6 * D
     rho, u, _, _ = disc.observe()
     assert np.max(np.abs(u)) < 1e-3

@@ -153,9 +153,12 @@ def test_one_lag_is_the_local_formulation():
 
 def test_nonlocal_column_at_rest_settles_without_drift():
     """Three spheres started at close packing under gravity: the column compresses about its
-    static equilibrium, the continuum's drop N² m g/(3K) of the mass centre: it sinks (at least
-    half of that drop), never rises, oscillates about the drop (the mean over the second half
-    within 35 % of it) and does not drift (2e-6 d)."""
+    static equilibrium: it sinks (at least half of the local limit's drop N² m g/(3K) of the mass
+    centre), never rises, oscillates about a drop of the local limit's size (measured 1.20× it, an
+    oscillation between 0.72× and 1.70×: the formula is the local limit's, not the nonlocal
+    column's equilibrium, which this test does not derive; within 35 %) and does not drift: the
+    mean over the first 25 ms and over the next 25 ms agree within 2 % of the drop (measured
+    0.07 %)."""
     s = SETUP.with_(n_spheres=3, n_taps=0, t_end=0.05)
     disc = s.packing_discretisation()
     c0 = float(disc.x.mean())
@@ -168,6 +171,7 @@ def test_nonlocal_column_at_rest_settles_without_drift():
     assert np.max(shifts) <= 1e-9 * D
     assert np.min(shifts) < -0.5 * static
     assert np.mean(shifts[25:]) == pytest.approx(-static, rel=0.35)
+    assert abs(np.mean(shifts[:25]) - np.mean(shifts[25:])) < 0.02 * static
     assert np.max(np.abs(shifts)) < 2e-6 * D
     assert np.max(np.abs(disc.v)) < 1e-3
 

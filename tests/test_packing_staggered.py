@@ -141,15 +141,19 @@ def test_the_top_sphere_is_thrown_ahead_as_in_the_lagrangian_form():
 
 
 def test_a_column_at_rest_settles_under_its_weight():
-    """No tap: the column stays on the floor, its mass centre sinks by the static compression
-    (of order N m g / K) and no more, and it does not move off."""
+    """No tap: the column stays on the floor and sinks by its static compression and no more:
+    every sphere's centre sinks, the higher ones more, and the top one by the sum of the N
+    contacts' static overlaps of the discrete chain, Σ_j (N − j) m g / K = N(N + 1)/2 · m g / K
+    (1.009e-7 m here; measured 1.0090e-7, 2e-5 relative, at t = 0.1 s)."""
     s = BASE.with_(n_taps=0, t_end=0.1)
     disc = s.packing_discretisation()
     run_packing(disc, 0.1, np.array([0.1]))
     rho, u, tracers, _ = disc.observe()
-    d = s.diameter
-    static = s.n_spheres * s.particle_mass * s.gravity / s.stiffness
-    assert np.all(np.abs(tracers - (np.arange(6) + 0.5) * d) < 10 * static)
+    n = s.n_spheres
+    sink = (np.arange(n) + 0.5) * s.diameter - tracers
+    chain = n * (n + 1) / 2 * s.particle_mass * s.gravity / s.stiffness
+    assert np.all(sink > 0) and np.all(np.diff(sink) > 0)
+    assert sink[-1] == pytest.approx(chain, rel=1e-3)
     assert np.max(np.abs(u)) < 1e-2
 
 

@@ -25,17 +25,15 @@ def test_seed_sign_collapses_the_bump():
     grid = Grid1D(0.0, 1.0, 200, "periodic", "periodic")
     model = BSRModel(kernel=walton_braun(3.0 * 40 ** 3, 0.0, 1 / 40, seed_sign=True))
     sim = Simulation(model, grid, Scheme.preset("seed"))
-    rho0 = _bump(grid)
-    try:
-        res = sim.run(np.zeros(grid.n_cells), rho0, 0.1)
-        peak = res.rho[-1].max()
-    except Exception:       # blowing up is also a collapse
-        peak = np.inf
-    assert peak > 1.3
+    res = sim.run(np.zeros(grid.n_cells), _bump(grid), 0.1)
+    assert res.status == "ok"               # it grows (to 5.3 at t = 0.1 s), it does not blow up
+    assert res.rho[-1].max() > 1.3
 
 
 def test_dissipative_kernel_loses_kinetic_energy():
-    """Free relative motion (no gravity) decays with ε > 0, is (nearly) conserved with ε = 0."""
+    """Free relative motion (no gravity) decays with ε > 0, is (nearly) conserved with ε = 0: the
+    kinetic energy turns into stored elastic energy and back over one oscillation (0.5 s here;
+    measured 0.9957 of the start with ε = 0 after it, 0.195 with ε = 0.3)."""
     grid = Grid1D(0.0, 1.0, 200, "periodic", "periodic")
     rho0 = np.ones(grid.n_cells)
     u0 = 0.05 * np.sin(2 * np.pi * grid.x)
@@ -44,11 +42,11 @@ def test_dissipative_kernel_loses_kinetic_energy():
         model = BSRModel(kernel=walton_braun(3.0 * 40 ** 3, eps, 1 / 40))
         res = Simulation(model, grid, Scheme(stepper="kutta3", filter=False, cfl=0.4)).run(
             u0, rho0, 0.5, save_every=0.05)
-        # total energy: kinetic + stored elastic (the latter returns to kinetic, so compare
-        # kinetic energy maxima over the oscillation)
         energies[eps] = res.kinetic_energy(grid.dx)
-    assert energies[0.3][-1] < 0.5 * energies[0.0][0]
-    assert energies[0.0].max() > 0.9 * energies[0.0][0]
+    k0 = energies[0.0][0]
+    assert energies[0.0][5] < 0.01 * k0                 # half way: nearly all stored
+    assert energies[0.0][-1] > 0.98 * k0                # one oscillation later: back
+    assert energies[0.3][-1] < 0.5 * k0
 
 
 def test_restitution_mapping_roundtrip():
@@ -95,21 +93,29 @@ def test_floor_supports_a_hydrostatic_column(bc, supported):
 
 
 def test_dropped_material_settles_on_the_floor():
-    """A blob released above the floor falls, is stopped by the floor and oscillates about the
-    hydrostatic state: mass is conserved exactly and nothing collapses into the wall."""
+    """A blob released above the floor falls, is stopped by the floor and settles, through
+    oscillations that ε damps, to a state at rest: mass is conserved exactly and nothing
+    collapses into the wall.  Its mass centre starts at 4.5 H/3, swings down to 0.28 H/3 and
+    back to 1.16 H/3 (a swing of 0.87 H/3 in t = 0.5–1 s), and in t = 1.5–2 s stays within
+    0.80–0.87 H/3 (measured),
+    H/3 being the mass centre of the hydrostatic state of the kernel's local limit, the γ = 2 gas
+    p = λR³ρ²/3: H = sqrt(2 M λR³ / (3 g)).  The kernel's range R is a quarter of H here, so the
+    nonlocal bed sits a little lower than that limit; the test takes the limit as a bound."""
     grid = Grid1D(0.0, 1.0, 200, "floor", "vacuum")
     model = BSRModel(kernel=walton_braun(LAM, 0.1, RAD), gravity=G)
     x = grid.x
     rho0 = np.where(np.abs(x - 0.3) < 0.1, 1.0, 0.0) * np.cos((x - 0.3) / 0.1 * np.pi / 2) ** 2
     res = Simulation(model, grid, Scheme.preset("seed"), top_tolerance=1e-6, vacuum_density=1e-3).run(
-        np.zeros_like(x), rho0, 1.0, save_every=0.1)
+        np.zeros_like(x), rho0, 2.0, save_every=0.05)
     m = res.mass(grid.dx)
     assert np.max(np.abs(m - m[0])) / m[0] < 1e-12
     assert res.rho.min() > -1e-9 * res.rho.max()
-    # hydrostatic height for this mass: H = sqrt(2 M λR³ / (3 g)); its mass centre is H/3
     H = np.sqrt(2 * m[0] * LAM * RAD ** 3 / (3 * G))
-    centre = (res.rho[-1] * x).sum() / res.rho[-1].sum()
-    assert 0.5 * H / 3 < centre < 0.3
+    centre = (res.rho * x).sum(axis=1) / res.rho.sum(axis=1) / (H / 3)
+    swing, last = centre[10:21], centre[-11:]               # t = 0.5–1 s, t = 1.5–2 s
+    assert swing.min() < 0.5 and swing.max() > 1.1          # the bounce off the floor
+    assert last.max() - last.min() < 0.2 * (swing.max() - swing.min())   # damped (0.076 measured)
+    assert 0.5 < last.mean() < 1.0
 
 
 def test_velocity_jumps_of_a_tap_shift_the_floor_frame_velocity():

@@ -1881,6 +1881,8 @@ def _main(args) -> int:
                              "write it elsewhere")
     if args.json is not None:
         check_output_file(args.json, "--json")
+    if args.figures is not None:                     # checked now, created once everything else is
+        check_output_dir(args.figures, "--figures")
     ref = Path(args.reference)
     need = ["flight_vs_gamma.csv", "params.json", "results"] + ([] if args.no_extra else [
         "flight_vs_gamma_e0.5.csv", "flight_vs_gamma_hooke_mu0.5.csv"])
