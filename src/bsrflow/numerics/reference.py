@@ -12,7 +12,32 @@ import numpy as np
 from .quadrature import quadrature_weights
 from .steppers import get_stepper
 
-__all__ = ["ReferenceScheme"]
+__all__ = ["ReferenceScheme", "make_positive_numpy"]
+
+
+def make_positive_numpy(rho: np.ndarray) -> np.ndarray:
+    """The mass-conserving positivity fix of ``compiled.make_positive`` in NumPy (a copy is
+    returned): the cells are visited from the bottom; a cell with ρ < 0 is set to 0 and its
+    deficit is taken from the cells with ρ > 0 within the narrowest window i − w … i + w
+    (w = 1, 2, …) that holds enough, each losing the same fraction of its density (all of it,
+    with the widest window, when even that does not hold enough: a failed state, where mass is
+    then created).  Sequential: a cell fixed earlier is a donor for the later ones."""
+    rho = np.array(rho, dtype=float, copy=True)
+    n = rho.size
+    for i in range(n):
+        if rho[i] >= 0.0:
+            continue
+        deficit = -rho[i]
+        rho[i] = 0.0
+        for w in range(1, n):
+            window = rho[max(0, i - w):min(n, i + w + 1)]          # a view: updated in place
+            donors = window > 0.0
+            avail = float(window[donors].sum()) if donors.any() else 0.0
+            if avail >= deficit or w == n - 1:
+                f = min(deficit / avail, 1.0) if avail > 0.0 else 0.0
+                window[donors] -= f * window[donors]
+                break
+    return rho
 
 
 class ReferenceScheme:
@@ -124,8 +149,7 @@ class ReferenceScheme:
         un = u + dt * sum(tb.b[j] * ku[j] for j in range(tb.stages))
         rn = rho + dt * sum(tb.b[j] * kr[j] for j in range(tb.stages))
         if self.sim.scheme.positivity:
-            rn = rn.copy()
-            self.sim.core.make_positive(rn)      # same redistribution (a sequential algorithm)
+            rn = make_positive_numpy(rn)
         thr = self.sim.vacuum_density
         if thr > 0:
             mat = np.flatnonzero(rn >= thr)
