@@ -187,3 +187,100 @@ def test_the_readme_two_dimensional_example_runs_as_written():
     mass = res.mass()
     assert abs(mass[-1] / mass[0] - 1.0) < 1e-12 and mass[0] == pytest.approx(1600.0 * 0.02 * 0.05)
     assert res.rho.min() >= 0.0
+
+
+# -- a user's own kernel, motion and stopping criteria (an audit of extending the package) -------
+@pytest.mark.parametrize("kw", [dict(rho_max=-1.0), dict(dt_min=-1.0), dict(strain_limit=-1.0),
+                                dict(top_tolerance=math.nan), dict(max_steps=0), dict(max_steps=-5),
+                                dict(max_steps=2.5), dict(rho_max="1")])
+def test_simulation_refuses_bad_stopping_criteria(kw):
+    name = next(iter(kw))
+    with pytest.raises(ValueError, match=f"^{name} = .*(valid range|must be a number)"):
+        Simulation(BSRModel(), GRID, Scheme.preset("seed"), **kw)
+
+
+def _no_interaction(z, u_here, u_there, p):
+    return 0.0 * z
+
+
+def test_a_changed_kernel_function_is_the_one_compiled():
+    """Setting ``fn`` or ``dataclasses.replace(kernel, fn=...)`` gives a kernel whose compiled
+    loop runs the new function (it ran the old Walton–Braun one, while κ and the CFL bound
+    came from the new one)."""
+    import dataclasses
+
+    from bsrflow.physics.kernels import walton_braun
+
+    grid = Grid1D(0.0, 1.0, 200, "floor", "vacuum")
+    rho = np.where(grid.x < 0.2, 0.5, 0.0)
+    replaced = dataclasses.replace(walton_braun(48000.0, 0.1, 0.05), fn=_no_interaction)
+    changed = walton_braun(48000.0, 0.1, 0.05)
+    changed.fn = _no_interaction
+    for kernel in (replaced, changed):
+        assert kernel.compiled.py_func is _no_interaction and kernel.stiffness_moment() == 0.0
+        sim = Simulation(BSRModel(kernel=kernel, gravity=9.81), grid, Scheme.preset("seed"))
+        du, _ = sim.rhs(np.zeros(grid.n_cells), rho, 0.0)
+        np.testing.assert_array_equal(du, -9.81)             # gravity alone
+
+
+@pytest.mark.parametrize("params", [[math.nan], [1.0, math.inf]])
+def test_kernel_parameters_must_be_finite(params):
+    from bsrflow.physics.kernels import Kernel, walton_braun
+
+    with pytest.raises(ValueError, match=r"^kernel params = .* must be finite numbers"):
+        Kernel(_no_interaction, params, 0.1)
+    kernel = walton_braun(48000.0, 0.1, 0.05)
+    with pytest.raises(ValueError, match=r"^kernel params = "):
+        kernel.params = [48000.0, math.nan, 0.05, -1.0]
+    with pytest.raises(ValueError, match=r"^kernel fn = None is not a function"):
+        Kernel(None, [1.0], 0.1)
+
+
+def test_a_motion_that_gives_nan_stops_a_column_run_in_one_line():
+    """A NaN from the applied motion, in a run with a vacuum top: the run stops at its first step
+    with the non-finite message (it looped forever in the velocity extension, which took a NaN
+    density for neither material nor vacuum)."""
+    import numba
+
+    from bsrflow.numerics.solver import SimulationError
+    from bsrflow.physics.kernels import walton_braun
+    from bsrflow.physics.motion import AppliedMotion
+
+    @numba.njit
+    def nan_motion(t, p):
+        return 0.0, 0.0, np.nan
+
+    grid = Grid1D(0.0, 1.0, 200, "floor", "vacuum")
+    model = BSRModel(kernel=walton_braun(48000.0, 0.1, 0.05), gravity=9.81, motion=AppliedMotion(nan_motion, [0.0]))
+    sim = Simulation(model, grid, Scheme.preset("seed"), vacuum_density=1e-4)
+    with pytest.raises(SimulationError, match="non-finite value") as err:
+        sim.run(np.zeros(grid.n_cells), np.where(grid.x < 0.2, 0.5, 0.0), 0.3, save_every=0.1)
+    assert "\n" not in str(err.value) and err.value.result.t.size == 1
+
+
+def test_velocity_extension_takes_a_nan_density_for_vacuum():
+    grid = Grid1D(0.0, 1.0, 20, "floor", "vacuum")
+    sim = Simulation(BSRModel(), grid, Scheme.preset("seed"), vacuum_density=1e-3)
+    u = np.arange(20.0)
+    rho = np.ones(20)
+    rho[5] = np.nan
+    rho[12:] = 0.0
+    top = sim.core.extend_velocity(u, rho, 1e-3)
+    assert top == 11
+    assert u[5] == 4.0 and np.all(u[12:] == 11.0)
+
+
+def test_a_state_at_rest_without_a_wave_speed_falls_step_by_step():
+    """The zero kernel from rest under gravity: no velocity, no wave speed.  The step is the one
+    of falling one cell (cfl Δx / √(Δx g)), not one step to the next save (0.3 s in one step
+    ended at u = −6.8e5 m/s); the mass centre then follows free fall."""
+    from bsrflow.physics.kernels import zero_kernel
+
+    grid = Grid1D(0.0, 1.0, 400, "floor", "vacuum")
+    rho = np.where((grid.x > 0.5) & (grid.x < 0.7), 0.5, 0.0)
+    sim = Simulation(BSRModel(kernel=zero_kernel(), gravity=9.81), grid, Scheme.preset("seed"))
+    res = sim.run(np.zeros(grid.n_cells), rho, 0.3)
+    centre = (res.rho[-1] * grid.x).sum() / res.rho[-1].sum()
+    assert res.steps > 100
+    assert centre == pytest.approx(0.6 - 0.5 * 9.81 * 0.3 ** 2, abs=2e-3)
+    assert np.abs(res.u[-1]).max() < 4.0

@@ -279,8 +279,8 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn, wave_speed_fn):
                 i += 1
                 continue
             j = i
-            while j < N and rho[j] < thr:
-                j += 1
+            while j < N and not rho[j] >= thr:      # a NaN is no material (and ends no run: the
+                j += 1                              # loop went on forever on one)
             # vacuum run i..j-1, material at prev (< i, or -1) and j (or N: none); cell m takes
             # u[prev] where m - prev <= j - m, i.e. m <= (prev + j) // 2, else u[j]
             if prev >= 0 or j < N:
@@ -633,6 +633,10 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn, wave_speed_fn):
                 if tail < N:
                     umax = max(umax, abs(u[N - 1]))
                 speed = umax + WS(rmax, wsp)
+                if speed == 0.0:
+                    # at rest without a wave speed (a state at rest under the zero kernel): the speed gravity
+                    # gives in falling one cell, not a single step to the next event (which ran 0.3 s in one)
+                    speed = math.sqrt(dx * abs(grav))
                 dt = cfl * dx / speed if speed > 0.0 else t_end - t
             if adaptive and dt_prop < dt:
                 dt = dt_prop

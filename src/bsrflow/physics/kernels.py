@@ -59,8 +59,12 @@ class Kernel(Interaction):
 
     Parameters
     ----------
-    fn : python function (z, u_here, u_there, p) -> Θ [m s⁻² kg⁻¹], NumPy-ufunc only.
-    params : float parameters p (runtime values: changing them does not recompile).
+    fn : python function (z, u_here, u_there, p) -> Θ [m s⁻² kg⁻¹], NumPy-ufunc only.  Setting
+        ``kernel.fn`` compiles the new function (and drops a ``fast_integral`` given for the old
+        one); ``dataclasses.replace(kernel, fn=...)`` compiles it too but keeps a
+        ``fast_integral`` given to ``kernel``: pass ``fast_integral=None`` with it.  A solver
+        built before the change keeps the kernel it was built with.
+    params : finite float parameters p (runtime values: changing them does not recompile).
     radius : R [m], the interaction range (the seed's 2r, one particle diameter).
     name : label.
     param_names, param_units : documentation of p, copied into output attributes.
@@ -84,12 +88,29 @@ class Kernel(Interaction):
     fast_integral: object = field(default=None, repr=False)
 
     def __post_init__(self):
-        self.params = np.ascontiguousarray(np.atleast_1d(np.asarray(self.params, dtype=np.float64)))
+        if not callable(self.fn):
+            raise ValueError(f"kernel fn = {self.fn!r} is not a function; give a Python function "
+                             "(z, u_here, u_there, p) -> Θ written with NumPy ufuncs")
         if not (np.isfinite(self.radius) and self.radius >= 0):
             raise ValueError(f"kernel radius = {self.radius!r} is outside the valid range [0, inf) m")
-        if self.compiled is None:
+        # the compiled function is always this fn's: a copy made with dataclasses.replace(k, fn=...)
+        # carries the old one in ``compiled`` (the compiled loop then ran the old kernel)
+        if self.compiled is None or getattr(self.compiled, "py_func", None) is not self.fn:
             self.compiled = _compile(self.fn)
         self._kappa = None
+
+    def __setattr__(self, name, value):
+        if name == "params":
+            value = np.ascontiguousarray(np.atleast_1d(np.asarray(value, dtype=np.float64)))
+            if not np.all(np.isfinite(value)):
+                raise ValueError(f"kernel params = {value.tolist()!r} must be finite numbers")
+        object.__setattr__(self, name, value)
+        if name == "fn" and "compiled" in self.__dict__:
+            # fn changed after construction: compile the new one; a fast integral given for the
+            # old function is not this one's, and κ is measured again
+            object.__setattr__(self, "compiled", _compile(value))
+            object.__setattr__(self, "fast_integral", None)
+            object.__setattr__(self, "_kappa", None)
 
     def __call__(self, z, u_here, u_there):
         """Evaluate Θ with NumPy (arrays broadcast)."""
