@@ -117,6 +117,8 @@ class LayerConfig:
         kind = {v: k for k, v in _kind_classes().items()}[type(self.setup)]
         lines = ["[layer]", f"kind = {json.dumps(kind)}"]
         for f in dataclasses.fields(self.setup):
+            if f.name in _NOT_OPTIONS.get(kind, ()):       # a field its config does not take
+                continue
             value = getattr(self.setup, f.name)
             if value is None:
                 lines.append(f"# {f.name}: not given (derived by the scenario)")
