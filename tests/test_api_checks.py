@@ -237,8 +237,8 @@ def test_kernel_parameters_must_be_finite(params):
 
 
 def test_a_motion_that_gives_nan_stops_a_column_run_in_one_line():
-    """A NaN from the applied motion, in a run with a vacuum top: the run stops at its first step
-    with the non-finite message (it looped forever in the velocity extension, which took a NaN
+    """A NaN from the applied motion, in a run with a vacuum top: the run stops at the first step
+    after it with the non-finite message (it looped forever in the velocity extension, which took a NaN
     density for neither material nor vacuum)."""
     import numba
 
@@ -247,15 +247,15 @@ def test_a_motion_that_gives_nan_stops_a_column_run_in_one_line():
     from bsrflow.physics.motion import AppliedMotion
 
     @numba.njit
-    def nan_motion(t, p):
-        return 0.0, 0.0, np.nan
+    def nan_motion(t, p):               # NaN from 1 ms on (at t = 0 AppliedMotion refuses it)
+        return 0.0, 0.0, np.nan if t > 1e-3 else 0.0
 
     grid = Grid1D(0.0, 1.0, 200, "floor", "vacuum")
     model = BSRModel(kernel=walton_braun(48000.0, 0.1, 0.05), gravity=9.81, motion=AppliedMotion(nan_motion, [0.0]))
     sim = Simulation(model, grid, Scheme.preset("seed"), vacuum_density=1e-4)
     with pytest.raises(SimulationError, match="non-finite value") as err:
         sim.run(np.zeros(grid.n_cells), np.where(grid.x < 0.2, 0.5, 0.0), 0.3, save_every=0.1)
-    assert "\n" not in str(err.value) and err.value.result.t.size == 1
+    assert "\n" not in str(err.value) and err.value.result.t.size == 1 and err.value.time < 0.01
 
 
 def test_velocity_extension_takes_a_nan_density_for_vacuum():
@@ -284,3 +284,61 @@ def test_a_state_at_rest_without_a_wave_speed_falls_step_by_step():
     assert res.steps > 100
     assert centre == pytest.approx(0.6 - 0.5 * 9.81 * 0.3 ** 2, abs=2e-3)
     assert np.abs(res.u[-1]).max() < 4.0
+
+
+def _divides_at_zero(z, u_here, u_there, p):
+    return p[0] * z / np.abs(z)
+
+
+def _python_if(z, u_here, u_there, p):
+    if z > 0:
+        return -p[0] * z
+    return p[0] * z
+
+
+def _imports_inside(z, u_here, u_there, p):
+    import math as m
+    return m.erf(z)
+
+
+@pytest.mark.parametrize("fn, match", [
+    (_divides_at_zero, r"divides by zero at z = 0"),
+    (_python_if, r"must also work on arrays .*truth value"),
+    (_imports_inside, r"cannot be compiled for the time loop"),
+])
+def test_a_kernel_function_the_loop_cannot_run_is_refused_in_one_line(fn, match):
+    from bsrflow.physics.kernels import Kernel
+
+    with pytest.raises(ValueError, match=f"^kernel fn {fn.__name__}.*{match}") as err:
+        Kernel(fn, [1.0], 0.1)
+    assert "\n" not in str(err.value)
+
+
+def _two_values(t, p):
+    return 0.0, 0.0
+
+
+def _plain_motion(t, p):                       # no @numba.njit: AppliedMotion compiles it
+    return 0.0, 0.0, p[0] * np.sin(t)
+
+
+def test_motion_and_model_arguments_are_checked_in_one_line():
+    from bsrflow.physics.kernels_nd import walton_braun_nd
+    from bsrflow.physics.motion import AppliedMotion, HalfSineTaps
+
+    assert AppliedMotion(_plain_motion, [2.0]).state(0.5)[2] == pytest.approx(2 * math.sin(0.5))
+    cases = [
+        (lambda: AppliedMotion(None, [0.0]), r"^motion fn = None is not a function"),
+        (lambda: AppliedMotion(_two_values, [0.0]), r"^motion fn _two_values\(t, p\) must .*returned 2 values"),
+        (lambda: AppliedMotion(_plain_motion, [math.nan]), r"^motion params = \[nan\] must be finite"),
+        (lambda: AppliedMotion(_plain_motion, [0.0], [0.05]), r"^motion jumps: 0.05 is not a \(time"),
+        (lambda: AppliedMotion(_plain_motion, [0.0], [(math.nan, 1.0)]), r"^motion jumps: \(nan, 1.0\) must be finite"),
+        (lambda: BSRModel(kernel=walton_braun_nd(1e3, 0.1, 0.05)), r"^kernel = KernelND must be .*use BSRModelND"),
+        (lambda: BSRModel(kernel=_plain_motion), r"^kernel = _plain_motion must be .*Kernel\(fn, params, radius\)"),
+        (lambda: BSRModel(motion=HalfSineTaps), r"^motion = HalfSineTaps must be an AppliedMotion \(call it"),
+        (lambda: BSRModel(gravity="9.81"), r"^gravity = '9.81' must be a number"),
+    ]
+    for make, match in cases:
+        with pytest.raises(ValueError, match=match) as err:
+            make()
+        assert "\n" not in str(err.value)

@@ -504,7 +504,8 @@ def test_a_column_runs_through_the_same_api_as_the_1d_solver_bit_for_bit():
         sim_u.run(np.zeros((2, n)), rho0, 0.01)
 
 
-def _wb_like(z, a, b, p):
+@numba.njit
+def _wb_like(z, a, b, p):          # compiled: a kernel's function calls only compiled functions
     r = np.sqrt(z[0] * z[0] + z[1] * z[1] + z[2] * z[2])
     dot = z[0] * (b[0] - a[0]) + z[1] * (b[1] - a[1]) + z[2] * (b[2] - a[2])
     s = -p[0] * (p[2] - r) / (r + (r == 0.0)) * (1.0 - p[1] * np.sign(dot))

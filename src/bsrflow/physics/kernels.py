@@ -30,6 +30,7 @@ quadrature treats the node z = 0 as carrying no net contribution for odd kernels
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field
 
 import numba
@@ -62,7 +63,8 @@ class Kernel(Interaction):
     fn : python function (z, u_here, u_there, p) -> Θ [m s⁻² kg⁻¹], NumPy-ufunc only.  Setting
         ``kernel.fn`` compiles the new function (and drops a ``fast_integral`` given for the old
         one); ``dataclasses.replace(kernel, fn=...)`` compiles it too but keeps a
-        ``fast_integral`` given to ``kernel``: pass ``fast_integral=None`` with it.  A solver
+        ``fast_integral`` given to ``kernel`` (and a ``compiled`` twin given explicitly): pass
+        ``fast_integral=None`` (``compiled=None``) with it.  A solver
         built before the change keeps the kernel it was built with.
     params : finite float parameters p (runtime values: changing them does not recompile).
     radius : R [m], the interaction range (the seed's 2r, one particle diameter).
@@ -93,11 +95,14 @@ class Kernel(Interaction):
                              "(z, u_here, u_there, p) -> Θ written with NumPy ufuncs")
         if not (np.isfinite(self.radius) and self.radius >= 0):
             raise ValueError(f"kernel radius = {self.radius!r} is outside the valid range [0, inf) m")
-        # the compiled function is always this fn's: a copy made with dataclasses.replace(k, fn=...)
-        # carries the old one in ``compiled`` (the compiled loop then ran the old kernel)
-        if self.compiled is None or getattr(self.compiled, "py_func", None) is not self.fn:
+        # a copy made with dataclasses.replace(k, fn=...) carries k's compiled function: one that
+        # was compiled from another fn here is replaced (the compiled loop ran the old kernel); a
+        # compiled twin given explicitly (a kernel whose NumPy and numba forms differ) is kept
+        made_here = _COMPILED.get(getattr(self.compiled, "py_func", None)) is self.compiled
+        if self.compiled is None or (made_here and self.compiled.py_func is not self.fn):
             self.compiled = _compile(self.fn)
         self._kappa = None
+        _probe_kernel(self)
 
     def __setattr__(self, name, value):
         if name == "params":
@@ -155,6 +160,45 @@ class Kernel(Interaction):
 
 
 _COMPILED: dict = {}
+_PROBED: set = set()
+
+
+def _one_line(exc: BaseException, limit: int = 300) -> str:
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return text if len(text) <= limit else text[:limit] + " ..."
+
+
+def _probe_kernel(kernel) -> None:
+    """Evaluate a kernel function once as the solver will (compiled, on scalars, z = 0 included)
+    and as the NumPy reference and κ do (on arrays), so that a function numba cannot compile, one
+    that only works on scalars, or one that divides by zero at z = 0 is refused here in one line
+    (ValueError naming the function) instead of failing inside the time loop with a numba
+    traceback.  Once per (function, parameters)."""
+    key = (kernel.fn, kernel.params.tobytes(), float(kernel.radius))
+    if kernel.fn in (_walton_braun, _zero) or key in _PROBED:      # the package's own: tested
+        return
+    name = getattr(kernel.fn, "__name__", repr(kernel.fn))
+    R = float(kernel.radius)
+    try:
+        for z in (0.0, 0.5 * R, -0.5 * R):
+            value = kernel.compiled(z, 0.0, 1.0, kernel.params)
+            if not isinstance(value, numbers.Real):
+                raise TypeError(f"it returned {value!r}, not a number")
+    except ZeroDivisionError:
+        raise ValueError(f"kernel fn {name}(z, u_here, u_there, p) divides by zero at z = 0; Θ must be "
+                         "finite there (np.sign(z) rather than z/|z|)") from None
+    except Exception as exc:                                   # numba's typing and lowering errors
+        raise ValueError(f"kernel fn {name} cannot be compiled for the time loop (arithmetic and NumPy "
+                         f"ufuncs only): {_one_line(exc)}") from None
+    try:
+        z = np.linspace(-R, R, 5)
+        values = np.asarray(kernel(z, np.zeros(5), np.ones(5)), dtype=float)
+        if np.broadcast_shapes(values.shape, z.shape) != z.shape:
+            raise TypeError(f"it returned shape {values.shape} for z of shape {z.shape}")
+    except Exception as exc:
+        raise ValueError(f"kernel fn {name} must also work on arrays (NumPy ufuncs, no Python if/else on "
+                         f"z or u): {_one_line(exc)}") from None
+    _PROBED.add(key)
 
 
 def _compile(fn):

@@ -11,6 +11,7 @@ optional external acceleration, Θ the interaction kernel (:mod:`bsrflow.physics
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass, field
 
 import numba
@@ -66,6 +67,17 @@ class BSRModel:
     boundary_params: np.ndarray = field(default_factory=lambda: np.zeros(1))
 
     def __post_init__(self):
+        if not isinstance(self.kernel, Kernel):
+            hint = (" (a 2-D/3-D kernel: use BSRModelND)" if type(self.kernel).__name__ == "KernelND" else
+                    " (wrap a function: Kernel(fn, params, radius))" if callable(self.kernel) else "")
+            what = getattr(self.kernel, "__name__", None) or type(self.kernel).__name__
+            raise ValueError(f"kernel = {what} must be a bsrflow.physics.kernels.Kernel{hint}")
+        if not isinstance(self.motion, AppliedMotion):
+            hint = " (call it: HalfSineTaps(amplitude, frequency, ...))" if callable(self.motion) else ""
+            what = getattr(self.motion, "__name__", None) or type(self.motion).__name__
+            raise ValueError(f"motion = {what} must be an AppliedMotion{hint}")
+        if isinstance(self.gravity, bool) or not isinstance(self.gravity, numbers.Real):
+            raise ValueError(f"gravity = {self.gravity!r} must be a number (m/s^2)")
         if not np.isfinite(self.gravity):
             raise ValueError(f"gravity = {self.gravity!r} must be finite (m/s^2)")
         self.external_params = np.ascontiguousarray(np.atleast_1d(np.asarray(self.external_params, float)))

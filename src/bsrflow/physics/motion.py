@@ -23,13 +23,17 @@ of the floor, and wrap it::
     from bsrflow.physics.motion import AppliedMotion
 
     @numba.njit
-    def shake(t, p):                      # p = (amplitude [m], angular frequency [1/s])
-        return (p[0] * np.sin(p[1] * t) ** 2, ..., ...)
+    def shake(t, p):                      # ϑ = A sin²(ωt), p = (A [m], ω [1/s])
+        s, c = np.sin(p[1] * t), np.cos(p[1] * t)
+        return p[0] * s * s, 2.0 * p[0] * p[1] * s * c, 2.0 * p[0] * p[1] ** 2 * (c * c - s * s)
 
     motion = AppliedMotion(shake, params=[0.01, 60.0], name="shake")
 
 If the velocity of your motion jumps, pass the jumps as ``jumps=[(t_j, Δ_j), ...]``.
-The time loop is never touched: both solvers compile the function into their loop.
+The time loop is never touched: both solvers compile the function into their loop (a function
+given without ``@numba.njit`` is compiled by ``AppliedMotion``, which also calls it once at t = 0
+and refuses, in one line, one that numba cannot compile or that does not return three finite
+numbers there).
 """
 
 from __future__ import annotations
@@ -120,8 +124,37 @@ class AppliedMotion:
     name: str = "motion"
 
     def __post_init__(self):
-        self.params = np.ascontiguousarray(np.atleast_1d(np.asarray(self.params, dtype=np.float64)))
-        self.jumps = sorted((float(t), float(dv)) for t, dv in self.jumps)
+        name = getattr(self.fn, "__name__", repr(self.fn))
+        if not callable(self.fn) or isinstance(self.fn, type):
+            raise ValueError(f"motion fn = {self.fn!r} is not a function fn(t, p) -> (ϑ [m], ϑ' [m/s], ϑ'' [m/s^2])")
+        if not isinstance(self.fn, numba.core.dispatcher.Dispatcher):
+            self.fn = numba.njit(self.fn)
+        params = np.ascontiguousarray(np.atleast_1d(np.asarray(self.params, dtype=np.float64)))
+        if not np.all(np.isfinite(params)):
+            raise ValueError(f"motion params = {params.tolist()!r} must be finite numbers")
+        self.params = params
+        jumps = []
+        for jump in self.jumps:
+            try:
+                t, dv = jump
+                t, dv = float(t), float(dv)
+            except (TypeError, ValueError):
+                raise ValueError(f"motion jumps: {jump!r} is not a (time [s], velocity jump [m/s]) pair") from None
+            if not (math.isfinite(t) and math.isfinite(dv)):
+                raise ValueError(f"motion jumps: ({t!r}, {dv!r}) must be finite numbers (time [s], velocity jump [m/s])")
+            jumps.append((t, dv))
+        self.jumps = sorted(jumps)
+        try:
+            state = self.fn(0.0, self.params)
+            state = tuple(float(v) for v in state)
+            if len(state) != 3:
+                raise TypeError(f"it returned {len(state)} values")
+        except Exception as exc:                        # numba's typing errors, wrong returns
+            text = " ".join(str(exc).split()) or type(exc).__name__
+            raise ValueError(f"motion fn {name}(t, p) must compile with numba and return (ϑ [m], ϑ' [m/s], "
+                             f"ϑ'' [m/s^2]); at t = 0: {text[:300]}") from None
+        if not all(math.isfinite(v) for v in state):
+            raise ValueError(f"motion fn {name}(0, p) = {state!r}: not finite")
 
     def state(self, t: float) -> tuple[float, float, float]:
         """(ϑ [m], ϑ' [m/s], smooth ϑ'' [m/s^2]) at time ``t`` [s]; at a velocity jump the value on
