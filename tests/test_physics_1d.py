@@ -154,3 +154,30 @@ def test_bad_inputs_give_clear_errors():
         sim.run(np.zeros(30), -np.ones(30), 1.0)
     with pytest.raises(ValueError, match="shape"):
         sim.run(np.zeros(31), np.ones(31), 1.0)
+
+
+def test_motions_match_their_formulas():
+    """The compiled motion functions against the closed forms (4.5) written here with NumPy:
+    half-sine taps ϑ = a sin ω(t − t_k) on [t_k, t_k + π/ω], t_k = t0 + kT, k < n (0 elsewhere)
+    with ϑ' and the smooth ϑ'', three taps included; the sinusoid a sin ω(t − t0) from t0."""
+    from bsrflow.physics.motion import SinusoidalVibration
+
+    a, f, t0, period = 0.003, 12.0, 0.05, 0.2
+    w = 2 * np.pi * f
+    taps = HalfSineTaps(a, f, start=t0, n_taps=3, period=period)
+    t = np.linspace(0.0, 0.8, 4001)
+    k = np.clip(np.floor((t - t0) / period), 0, None)
+    s = t - (t0 + k * period)
+    on = (t >= t0) & (k < 3) & (s <= np.pi / w)
+    expected = np.where(on, [[a * np.sin(w * s)], [a * w * np.cos(w * s)], [-a * w * w * np.sin(w * s)]], 0.0)[:, 0]
+    got = np.array([taps.state(x) for x in t]).T
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * a * w * w)
+    assert on.sum() > 100 and (~on).sum() > 100                  # both branches sampled
+    assert taps.jumps == [(t0 + j * period + dt, a * w) for j in range(3) for dt in (0.0, np.pi / w)]
+    sine = SinusoidalVibration(a, f, start=t0)
+    got = np.array([sine.state(x) for x in t]).T
+    after = t >= t0
+    expected = np.where(after, [[a * np.sin(w * (t - t0))], [a * w * np.cos(w * (t - t0))],
+                                [-a * w * w * np.sin(w * (t - t0))]], 0.0)[:, 0]
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * a * w * w)
+    assert sine.jumps == [(t0, a * w)]
