@@ -131,6 +131,33 @@ def _raise_pending():
         raise _Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
 
 
+_HOLD = {"depth": 0}
+
+
+@contextlib.contextmanager
+def signals_held():
+    """Inside :func:`_sigterm_as_interrupt`, a Ctrl-C or SIGTERM that arrives while the block
+    runs is raised when it ends, so that a group of writes (one snapshot's netCDF and VTK files)
+    is never cut in between; an exception of the block's own goes out as it is."""
+    _HOLD["depth"] += 1
+    try:
+        yield
+    finally:
+        _HOLD["depth"] -= 1
+    if _HOLD["depth"] == 0:
+        _raise_pending()
+
+
+def together(*observers):
+    """One observer that calls ``observers`` in order inside :func:`signals_held` (a snapshot
+    written to every output, or, if interrupted, the interrupt raised after all of them)."""
+    def observe(*args, **kwargs):
+        with signals_held():
+            for obs in observers:
+                obs(*args, **kwargs)
+    return observe
+
+
 @contextlib.contextmanager
 def _sigterm_as_interrupt():
     """While the block runs, SIGTERM raises :class:`_Terminated` (a KeyboardInterrupt) in the
@@ -152,6 +179,8 @@ def _sigterm_as_interrupt():
         if _in_swallowing_callback(frame):
             _resend_later(signum)           # not raised here: the callback would swallow it
             return
+        if _HOLD["depth"] > 0:
+            return                          # raised at the end of signals_held()
         _mark_raised()
         raise _Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
 

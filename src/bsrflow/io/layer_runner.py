@@ -1093,8 +1093,11 @@ class _LayerBase(RunJob):
         return _checkpoint_tracers(ck, self.tracers, checkpoint_path(self.out))
 
     def observers(self, writer, resumed_at):
+        from .commands import together
         self.vtk_writer = _vtk_writer(self.vtk_stem, self.grid, resumed_at, per_depth=self.per_depth)
-        return [writer] + ([self.vtk_writer] if self.vtk_writer else [])
+        # one snapshot in both files or in neither: an interrupt between the two writes left the
+        # VTK series one snapshot behind the netCDF file (an audit, 2026-12-06)
+        return [together(writer, self.vtk_writer)] if self.vtk_writer else [writer]
 
     def vtk_collection(self):
         return self.vtk_writer.pvd.as_posix() if self.vtk_writer else None
@@ -1315,7 +1318,8 @@ class GranularBedJob(_ControllerJob):
             return super().observers(writer, resumed_at)
         self.vtk_writer = _vtk_writer(self.vtk_stem, self.disc.vtk_grid(), resumed_at)
         vtk = self.vtk_writer
-        return [writer, lambda t, u, rho, tracers=None: vtk.write_fields(t, self.disc.vtk_fields(), tracers)]
+        from .commands import together
+        return [together(writer, lambda t, u, rho, tracers=None: vtk.write_fields(t, self.disc.vtk_fields(), tracers))]
 
 
 def _run_files(cfg: LayerConfig, out):
