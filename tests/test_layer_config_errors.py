@@ -237,10 +237,20 @@ def test_the_stiffness_is_still_named_when_the_config_sets_it(tmp_path, capsys):
     ('kind = "packing_bed"\ndomain_height = "x"', "valid range: [energy bound, inf) m (or not given"),
     ('kind = "granular_bed"\ngamma = nan', "layer.gamma: nan must be a finite number; valid range: [0, 20]"),
     ('kind = "tapped_layer"\nsides = 5', "layer.sides: 5 must be a string; valid: 'wall' or 'periodic'"),
+    ('kind = "tapped_layer"\n[output]\ncheckpoint_every = "0.1"',
+     "output.checkpoint_every: '0.1' must be a finite number; valid range: [0, t_end = 0.2] s"),
 ])
 def test_type_errors_state_the_valid_range(text, words, tmp_path, capsys):
     err = refused(tmp_path, capsys, f"[layer]\n{text}\n")
     assert words in err, err
+
+
+def test_an_output_table_without_a_layer_table_names_the_layer_table(tmp_path, capsys):
+    (tmp_path / "c.toml").write_text("[output]\nvtk = true\n")
+    assert main(["run", str(tmp_path / "c.toml"), "--out", str(tmp_path / "c.nc")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("bsrflow run: error: output: unknown table")
+    assert "needs a [layer] table" in err[0]
 
 
 def test_every_field_of_every_kind_has_a_stated_range():

@@ -416,8 +416,10 @@ class Config:
                     raise ConfigError(table, f"a key outside any table; put it in "
                                       f"[{_SHORT[table].split('.')[0]}] (as {_SHORT[table]})", body)
                 near = _suggest(table, _TABLES)
+                layer = ("; a 2-D/3-D or bed config needs a [layer] table (its [output] and [tracers] go with it)"
+                         if table in ("output", "tracers") else "")
                 raise ConfigError(table, "unknown table" + (f"; did you mean [{near}]?" if near else "")
-                                  + f" (valid tables: {', '.join(_TABLES)})", body)
+                                  + f" (valid tables: {', '.join(_TABLES)}){layer}", body)
             if not isinstance(body, Mapping):
                 raise ConfigError(table, f"expected a table [{table}], got {_describe(body)}", body)
             for key, v in body.items():

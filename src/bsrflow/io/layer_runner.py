@@ -264,8 +264,10 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
         raise ConfigError("layer.save_every", f"{setup.save_every!r} is outside the valid range (0, t_end = {t_end:g}] s")
     ck = out.get("checkpoint_every")
     if ck is not None:
-        if (isinstance(ck, bool) or not isinstance(ck, (int, float))
-                or not (math.isfinite(ck) and 0.0 <= ck <= t_end)):
+        if isinstance(ck, bool) or not isinstance(ck, (int, float)):
+            raise ConfigError("output.checkpoint_every", f"{ck!r} must be a finite number; valid range: [0, t_end = "
+                              f"{t_end:g}] s (0: no checkpoints)")
+        if not (math.isfinite(ck) and 0.0 <= ck <= t_end):
             raise ConfigError("output.checkpoint_every", f"{ck!r} is outside the valid range [0, t_end = {t_end:g}] s "
                               "(0: no checkpoints)")
     return LayerConfig(setup, vtk, None if ck is None else float(ck), raw.decode("utf-8"),
