@@ -487,6 +487,11 @@ def test_the_eulerian_bed_runs_from_a_config_and_resumes_bit_for_bit(tmp_path):
                                                    "state_floor_force")}
     assert units == {"rho": "kg m-1", "state_theta": "m2 s-2", "state_velocity_z": "m s-1",
                      "state_solid_fraction": "1", "state_floor_force": "N"}
+    with xr.open_dataset(full) as ds:                   # the grid's dimensions are coordinates too
+        for d, n in zip(("grid_x", "grid_y", "grid_z"), attrs["grid_shape"]):
+            assert d in ds.coords and ds[d].size == n and list(ds[d].values[:1]) == [0]
+            assert "grid_cell_size_m" in ds[d].attrs["long_name"]
+        assert "grid_dimension" in ds.attrs["dimension_note"]
 
     def check(ck):
         assert set(ck.fields) == {"q", "floor_force"}

@@ -1296,7 +1296,9 @@ class GranularBedJob(_ControllerJob):
     def _attrs(self):
         eulerian = self.disc.name == "granular_bed_eulerian"
         extra = ({"grid_dimension": int(self.setup.dimension), "grid_shape": list(self.disc.shape),
-                  "grid_cell_size_m": [float(v) for v in self.disc.dx]} if eulerian else {})
+                  "grid_cell_size_m": [float(v) for v in self.disc.dx],
+                  "dimension_note": "dimension is that of rho and u_z, the bed's profile over z (the "
+                                    "horizontal mean); grid_dimension is the Eulerian grid's"} if eulerian else {})
         return {**extra, "config": self.cfg.text, "config_resolved": self.cfg.resolved_text(),
                 "scheme": "granular_bed_eulerian" if eulerian else "granular_bed_lagrangian", "kernel": "granular_bed",
                 "dimension": 1,

@@ -374,7 +374,8 @@ class NetCDFWriter:
 def _add_state_fields(state, schema, sizes, coords):
     """Add the variables ``state_<name>`` of the state fields ``state = (field_schema, source)``
     to ``schema``, their dimensions' sizes (from the arrays ``source()`` returns) to ``sizes``,
-    and the coordinates of the dimensions ``point`` (index) and ``lag`` (1..L) to ``coords``."""
+    and the coordinates of the dimensions ``point``, ``face``, ``cell``, ``grid_x/_y/_z`` (indices)
+    and ``lag`` (1..L) to ``coords``."""
     field_schema, source = state
     values = source()
     if set(values) != set(field_schema):
@@ -389,7 +390,11 @@ def _add_state_fields(state, schema, sizes, coords):
     labels = {"point": ("1", "material point index (from the floor, 0-based)", 0),
               "lag": ("1", "bond lag: a bond of lag l joins a point to the l-th point below it", 1),
               "face": ("1", "Lagrangian cell face index (from the floor, 0-based)", 0),
-              "cell": ("1", "Lagrangian cell index (from the floor, 0-based)", 0)}
+              "cell": ("1", "Lagrangian cell index (from the floor, 0-based)", 0),
+              "grid_x": ("1", "Eulerian cell index along x (0-based; centre at (i + 1/2) grid_cell_size_m[0])", 0),
+              "grid_y": ("1", "Eulerian cell index along y (0-based; centre at (j + 1/2) grid_cell_size_m[1])", 0),
+              "grid_z": ("1", "Eulerian cell index along z from the floor (0-based; centre at (k + 1/2) "
+                              "grid_cell_size_m[2])", 0)}
     for d, (units, long_name, first) in labels.items():
         if d in sizes and d not in coords:
             schema[d] = ((d,), units, long_name)
