@@ -335,3 +335,16 @@ def test_set_overrides_a_layer_config(tmp_path, capsys):
                      "--set", "t_end=0.1"]) == 2, text
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and words in err[0], (text, err)
+
+
+def test_a_short_layer_run_has_checkpoints_by_default():
+    """Without checkpoint_every a layer run checkpoints about every 0.1 s or every t_end/10 when
+    that is shorter (a 0.1 s bed run that took 85 s of wall time had none)."""
+    from bsrflow.io.layer_runner import _checkpoint_times, default_checkpoint_interval
+
+    assert default_checkpoint_interval(2.0) == 0.1 and default_checkpoint_interval(0.1) == 0.01
+    saves = np.round(np.arange(0, 101) * 1e-3, 12)                     # t_end 0.1 s, every 1 ms
+    np.testing.assert_allclose(_checkpoint_times(saves, None), saves[10::10])
+    saves = np.round(np.arange(0, 201) * 1e-2, 12)                     # t_end 2 s, every 10 ms
+    np.testing.assert_allclose(_checkpoint_times(saves, None), saves[10::10])
+    assert _checkpoint_times(saves, 0.0).size == 0

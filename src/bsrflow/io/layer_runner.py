@@ -9,7 +9,7 @@ netCDF file (:class:`bsrflow.io.netcdf.NetCDFWriterND`), optionally VTK files fo
     t_end = 0.2
     [output]
     vtk = true                   # <out stem>_vtk/layer_*.vtu and layer.pvd
-    checkpoint_every = 0.05      # [s], on snapshot times; 0: none; default about every 0.1 s
+    checkpoint_every = 0.05      # [s], on snapshot times; 0: none; default about every 0.1 s (t_end/10 if shorter)
     state = true                 # packing_bed, granular_bed (default there): state fields (state_<name>, units)
     [tracers]
     positions = [[0.01, 0.005], [0.01, 0.015]]   # initial positions [m] (floor frame, x (y) z)
@@ -126,7 +126,7 @@ class LayerConfig:
                 lines.append(f"{f.name} = {_toml_value(value)}")
         lines += ["[output]", f"vtk = {_toml_value(self.vtk)}", f"state = {_toml_value(self.state)}"]
         if self.checkpoint_every is None:
-            lines.append("# checkpoint_every: not given (about every 0.1 s on snapshot times)")
+            lines.append("# checkpoint_every: not given (about every 0.1 s, or t_end/10 if shorter, on snapshot times)")
         else:
             lines.append(f"checkpoint_every = {_toml_value(self.checkpoint_every)}")
         if self.tracers is not None:
@@ -1016,11 +1016,23 @@ LayerOutcome = RunOutcome
 ``top_max_over_d`` is None, ``vtk`` the ParaView collection of a run with VTK output)."""
 
 
+DEFAULT_CHECKPOINT_INTERVAL = 0.1
+"""[s] of simulated time between a layer run's checkpoints when ``checkpoint_every`` is not given
+(at most a tenth of ``t_end``: a bed run of 0.1 s took 85 s of wall time and had none)."""
+
+
+def default_checkpoint_interval(t_end: float) -> float:
+    """The checkpoint interval [s] of a layer config without ``checkpoint_every``: 0.1 s, or
+    t_end / 10 when that is shorter (rounded to whole snapshots by :func:`_checkpoint_times`)."""
+    return min(DEFAULT_CHECKPOINT_INTERVAL, float(t_end) / 10.0)
+
+
 def _checkpoint_times(save_times, interval):
-    """Checkpoints on snapshot times, about every ``interval`` s (None: 0.1 s; 0: none)."""
+    """Checkpoints on snapshot times, about every ``interval`` s (None: the default,
+    :func:`default_checkpoint_interval`; 0: none)."""
     if interval == 0.0 or len(save_times) < 2:
         return np.array([])
-    interval = 0.1 if interval is None else interval
+    interval = default_checkpoint_interval(save_times[-1]) if interval is None else interval
     step = max(1, int(round(interval / (save_times[1] - save_times[0]))))
     return np.asarray(save_times[step::step], dtype=float)
 
@@ -1051,7 +1063,8 @@ class _LayerBase(RunJob):
         self.config_text = cfg.text
         self.tracers = None if cfg.tracers is None else np.array(cfg.tracers, dtype=float)
         self.n_tracers = 0 if self.tracers is None else self.tracers.shape[0]
-        self.checkpoint_interval = 0.1 if cfg.checkpoint_every is None else float(cfg.checkpoint_every)
+        self.checkpoint_interval = (default_checkpoint_interval(self.t_end) if cfg.checkpoint_every is None
+                                    else float(cfg.checkpoint_every))
         self.vtk_writer = None
 
     def check_paths(self):
