@@ -77,6 +77,43 @@ def test_compiled_kernels_equal_the_numpy_twin(shape):
 
 
 @pytest.mark.parametrize("shape", [(1, 1, 40), (6, 1, 40), (5, 4, 40)])
+def test_one_compiled_step_equals_ssp_rk3_on_the_numpy_twin(shape):
+    """One step of the compiled loop (bed_advance) against SSP-RK3 in Shu–Osher form written
+    with NumPy around the twin's right-hand side (the floor's acceleration −g + aω² sin ωt at t,
+    t + Δt, t + Δt/2), its time step and post-step pass; the floor impulse is the stages' mean
+    floor stresses weighted 1/6, 1/6, 2/3."""
+    s = BedSetup()
+    dx = np.array([s.diameter / 4, s.diameter / 3, s.diameter / 4])
+    par, arr = _params(s, dx)
+    q0, dim = _random_bed(shape, dx, par, seed=5)
+    g, amp, omega, t = 9.81, 1e-3, 2 * math.pi * 20.0, 0.0123
+    q = q0.copy()
+    counters = np.zeros(3, np.int64)
+    t1, impulse = B.bed_advance(q, t, 1.0, dim, dx, 0.4, arr, g, amp, omega, True, par["e_d"],
+                                B.work_arrays(q.shape), counters, 1, False, np.zeros((0, 3)),
+                                dx * np.array(shape))
+    assert counters[0] == 1 and counters[1] == 0
+    dt = R.stable_dt_numpy(q0, dim, dx, par)
+    assert t1 - t == pytest.approx(dt, rel=1e-13)
+    dt = t1 - t                                            # the compiled step's own float
+
+    def L(state, time):
+        return R.rhs_numpy(state, dim, dx, -g + amp * omega ** 2 * math.sin(omega * time), par)
+
+    k0, f0 = L(q0, t)
+    q1 = q0 + dt * k0
+    k1, f1 = L(q1, t + dt)
+    q2 = 0.75 * q0 + 0.25 * (q1 + dt * k1)
+    k2, f2 = L(q2, t + 0.5 * dt)
+    want = R.post_step_numpy(q0 / 3.0 + (2.0 / 3.0) * (q2 + dt * k2), dt, par)
+    for c in range(6):
+        scale = np.abs(want[c]).max()
+        assert np.abs(q[c] - want[c]).max() <= 1e-12 * scale if scale else np.all(q[c] == 0.0), c
+    stress = dt * (f0.mean() / 6.0 + f1.mean() / 6.0 + (2.0 / 3.0) * f2.mean())
+    assert impulse == pytest.approx(stress, rel=1e-12)
+
+
+@pytest.mark.parametrize("shape", [(1, 1, 40), (6, 1, 40), (5, 4, 40)])
 def test_time_step_bound_where_diffusion_binds(shape):
     """A hot bed with a dense / dilute interface (the conduction's face coefficient, the mean of a
     dense and a dilute cell's, acting on the dilute cell) and viscous cells at the floor and the
