@@ -88,8 +88,8 @@ class RunOutcome:
         rejected = f" ({self.rejected_steps} rejected)" if self.adaptive else ""
         vtk = f"; VTK {self.vtk}" if self.vtk else ""
         return (f"{self.status}: {self.n_snapshots} snapshots to t = {self.t_end:.6g} s, {self.steps} steps"
-                f"{rejected}{resumed}{top}; wall time {self.wall_time:.3g} s (+ {self.compile_time:.3g} s "
-                f"compiling); wrote {self.path}{vtk}")
+                f"{rejected}{resumed}{top}; wall time {self.wall_time:.3g} s{' over all segments' if resumed else ''} "
+                f"(+ {self.compile_time:.3g} s compiling); wrote {self.path}{vtk}")
 
 
 class RunJob(abc.ABC):
