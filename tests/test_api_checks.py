@@ -342,3 +342,34 @@ def test_motion_and_model_arguments_are_checked_in_one_line():
         with pytest.raises(ValueError, match=match) as err:
             make()
         assert "\n" not in str(err.value)
+
+
+def test_review_findings_on_wrapping_user_functions():
+    """A plain motion function is compiled once (the time loop's cache is keyed on the compiled
+    object: a new one per AppliedMotion recompiled the loop for every amplitude of a sweep); an
+    object numba cannot take is one line; the n-D kernel follows fn and checks its params."""
+    import dataclasses
+    import functools
+
+    from bsrflow.physics.kernels import Kernel
+    from bsrflow.physics.kernels_nd import KernelND, walton_braun_nd
+    from bsrflow.physics.motion import AppliedMotion
+
+    a, b = AppliedMotion(_plain_motion, [1.0]), AppliedMotion(_plain_motion, [2.0])
+    assert a.fn is b.fn
+    with pytest.raises(ValueError, match=r"^motion fn .* cannot be compiled by numba"):
+        AppliedMotion(functools.partial(_plain_motion, p=[1.0]), [0.0])
+    with pytest.raises(ValueError, match=r"^kernel fn .* cannot be compiled by numba"):
+        Kernel(functools.partial(_no_interaction, p=[1.0]), [1.0], 0.1)
+    with pytest.raises(ValueError, match=r"^kernel fn = 3 is not a function"):
+        Kernel(_no_interaction, [1.0], 0.1).fn = 3
+
+    def soft(z, a, b, p):
+        return 0.0 * z[0], 0.0 * z[1], 0.0 * z[2]
+
+    replaced = dataclasses.replace(walton_braun_nd(1e3, 0.1, 0.05), fn=soft)
+    changed = walton_braun_nd(1e3, 0.1, 0.05)
+    changed.fn = soft
+    assert replaced.compiled.py_func is soft and changed.compiled.py_func is soft
+    with pytest.raises(ValueError, match=r"^kernel params = \[nan\] must be finite"):
+        KernelND(soft, [math.nan], 0.05)

@@ -138,7 +138,8 @@ _HOLD = {"depth": 0}
 def signals_held():
     """Inside :func:`_sigterm_as_interrupt`, a Ctrl-C or SIGTERM that arrives while the block
     runs is raised when it ends, so that a group of writes (one snapshot's netCDF and VTK files)
-    is never cut in between; an exception of the block's own goes out as it is."""
+    is never cut in between; an exception of the block's own goes out as it is (a signal pending
+    then is dropped: the run ends with that error, not as interrupted)."""
     _HOLD["depth"] += 1
     try:
         yield

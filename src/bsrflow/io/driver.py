@@ -321,7 +321,9 @@ def check_checkpoint_values(ck: Checkpoint, ckpt_file, t_end: float, checkpoint_
     if not (np.isfinite(ck.t) and 0.0 < ck.t < t_end):
         raise refuse(f"has t = {ck.t!r} s, outside the valid range (0, t_end = {t_end:g}) s")
     if checkpoint_times is not None and not np.any(np.asarray(checkpoint_times, float) == ck.t):
-        raise refuse(f"has t = {ck.t!r} s, which is not one of this config's checkpoint times")
+        raise refuse(f"has t = {ck.t!r} s, which is not one of this config's checkpoint times (a layer config "
+                     "without checkpoint_every checkpoints at min(0.1 s, t_end/10) since 2026-12-06: a "
+                     "checkpoint of an earlier version may not match)")
     for name, values in [*ck.fields.items(), ("tracers", ck.tracers)]:
         what = "its tracer positions" if name == "tracers" else f"its field {name!r}"
         try:

@@ -635,7 +635,8 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn, wave_speed_fn):
                 speed = umax + WS(rmax, wsp)
                 if speed == 0.0:
                     # at rest without a wave speed (a state at rest under the zero kernel): the speed gravity
-                    # gives in falling one cell, not a single step to the next event (which ran 0.3 s in one)
+                    # gives in falling one cell, not a single step to the next event (which ran 0.3 s in one);
+                    # gravity only: a moving floor's or an external acceleration is not known here
                     speed = math.sqrt(dx * abs(grav))
                 dt = cfl * dx / speed if speed > 0.0 else t_end - t
             if adaptive and dt_prop < dt:

@@ -113,9 +113,13 @@ class Kernel(Interaction):
         if name == "fn" and "compiled" in self.__dict__:
             # fn changed after construction: compile the new one; a fast integral given for the
             # old function is not this one's, and κ is measured again
+            if not callable(value):
+                raise ValueError(f"kernel fn = {value!r} is not a function; give a Python function "
+                                 "(z, u_here, u_there, p) -> Θ written with NumPy ufuncs")
             object.__setattr__(self, "compiled", _compile(value))
             object.__setattr__(self, "fast_integral", None)
             object.__setattr__(self, "_kappa", None)
+            _probe_kernel(self)
 
     def __call__(self, z, u_here, u_there):
         """Evaluate Θ with NumPy (arrays broadcast)."""
@@ -174,7 +178,7 @@ def _probe_kernel(kernel) -> None:
     that only works on scalars, or one that divides by zero at z = 0 is refused here in one line
     (ValueError naming the function) instead of failing inside the time loop with a numba
     traceback.  Once per (function, parameters)."""
-    key = (kernel.fn, kernel.params.tobytes(), float(kernel.radius))
+    key = (kernel.fn, id(kernel.compiled), kernel.params.tobytes(), float(kernel.radius))
     if kernel.fn in (_walton_braun, _zero) or key in _PROBED:      # the package's own: tested
         return
     name = getattr(kernel.fn, "__name__", repr(kernel.fn))
@@ -202,9 +206,14 @@ def _probe_kernel(kernel) -> None:
 
 
 def _compile(fn):
-    """numba-compile a kernel function once per function object."""
+    """numba-compile a kernel function once per function object (ValueError, one line, for an
+    object numba cannot take: a callable object, a functools.partial)."""
     if fn not in _COMPILED:
-        _COMPILED[fn] = numba.njit(inline="always")(fn)
+        try:
+            _COMPILED[fn] = numba.njit(inline="always")(fn)
+        except Exception as exc:
+            raise ValueError(f"kernel fn {fn!r} cannot be compiled by numba (give a plain Python function): "
+                             f"{_one_line(exc)}") from None
     return _COMPILED[fn]
 
 

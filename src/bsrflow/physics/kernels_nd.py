@@ -71,8 +71,9 @@ class KernelND(Interaction):
 
     Parameters
     ----------
-    fn : python function ``(z, a, b, p) -> (Θ_x, Θ_y, Θ_z)`` [m s⁻² kg⁻¹] (module docstring).
-    params : float parameters p (runtime values: changing them does not recompile).
+    fn : python function ``(z, a, b, p) -> (Θ_x, Θ_y, Θ_z)`` [m s⁻² kg⁻¹] (module docstring);
+        setting ``kernel.fn`` or ``dataclasses.replace(kernel, fn=...)`` compiles the new one.
+    params : finite float parameters p (runtime values: changing them does not recompile).
     radius : R [m], the interaction range (one particle diameter).
     name, param_names, param_units : documentation, copied into output attributes.
     """
@@ -88,11 +89,25 @@ class KernelND(Interaction):
     state_fields = ("u",)
 
     def __post_init__(self):
+        if not callable(self.fn):
+            raise ValueError(f"kernel fn = {self.fn!r} is not a function (z, a, b, p) -> (Θ_x, Θ_y, Θ_z)")
         self.params = np.ascontiguousarray(np.atleast_1d(np.asarray(self.params, dtype=np.float64)))
+        if not np.all(np.isfinite(self.params)):
+            raise ValueError(f"kernel params = {self.params.tolist()!r} must be finite numbers")
         if not (np.isfinite(self.radius) and self.radius > 0):
             raise ValueError(f"kernel radius = {self.radius!r} is outside the valid range (0, inf) m")
-        if self.compiled is None:
+        # as the 1-D Kernel: a compiled function made here from another fn (a copy by
+        # dataclasses.replace(k, fn=...)) is replaced; a compiled twin given explicitly is kept
+        made_here = _COMPILED.get(getattr(self.compiled, "py_func", None)) is self.compiled
+        if self.compiled is None or (made_here and self.compiled.py_func is not self.fn):
             self.compiled = _compile(self.fn)
+
+    def __setattr__(self, name, value):
+        object.__setattr__(self, name, value)
+        if name == "fn" and "compiled" in self.__dict__:        # changed after construction
+            if not callable(value):
+                raise ValueError(f"kernel fn = {value!r} is not a function (z, a, b, p) -> (Θ_x, Θ_y, Θ_z)")
+            object.__setattr__(self, "compiled", _compile(value))
 
     def stiffness_moment(self, dim: int, cells: int = 24) -> float:
         """M = max over relative vertical motions b of |∫_B z_z Θ_z(z, 0, b) dz| [m^(n+2) s⁻² kg⁻¹]
@@ -147,18 +162,25 @@ class KernelND(Interaction):
                 "param_names": list(self.param_names), "param_units": list(self.param_units)}
 
 
+_LINE_FUNCTIONS: dict = {}
+"""(NumPy, compiled) restrictions to the vertical line, once per n-D kernel's compiled function
+(a new pair per call meant a new compile, and a new check of the 1-D kernel, per solver)."""
+
+
 def _generic_line_kernel(k: "KernelND"):
     from .kernels import Kernel
     fn, cf = k.fn, k.compiled
+    if cf not in _LINE_FUNCTIONS:
+        def on_line(z, u_here, u_there, p):
+            o = 0.0 * z
+            return fn((o, o, z), (0.0 * u_here, 0.0 * u_here, u_here), (0.0 * u_there, 0.0 * u_there, u_there), p)[2]
 
-    def on_line(z, u_here, u_there, p):
-        o = 0.0 * z
-        return fn((o, o, z), (0.0 * u_here, 0.0 * u_here, u_here), (0.0 * u_there, 0.0 * u_there, u_there), p)[2]
+        @numba.njit(inline="always")
+        def on_line_compiled(z, u_here, u_there, p):
+            return cf((0.0, 0.0, z), (0.0, 0.0, u_here), (0.0, 0.0, u_there), p)[2]
 
-    @numba.njit(inline="always")
-    def on_line_compiled(z, u_here, u_there, p):
-        return cf((0.0, 0.0, z), (0.0, 0.0, u_here), (0.0, 0.0, u_there), p)[2]
-
+        _LINE_FUNCTIONS[cf] = (on_line, on_line_compiled)
+    on_line, on_line_compiled = _LINE_FUNCTIONS[cf]
     return Kernel(on_line, k.params.copy(), k.radius, name=f"{k.name}_on_line", param_names=k.param_names,
                   param_units=k.param_units, compiled=on_line_compiled)
 

@@ -102,14 +102,20 @@ def _sinusoid_state(t, p):
     return a * math.sin(w * s), a * w * math.cos(w * s), -a * w * w * math.sin(w * s)
 
 
+_JITTED: dict = {}
+"""Plain motion functions compiled by :class:`AppliedMotion`, one numba object per function."""
+
+
 @dataclass
 class AppliedMotion:
     """A prescribed floor motion ϑ(t).
 
     Parameters
     ----------
-    fn : numba-compiled function ``fn(t, p) -> (ϑ [m], ϑ' [m/s], ϑ'' [m/s^2])``
-        ϑ'' is the smooth part of the acceleration only (no impulses).
+    fn : function ``fn(t, p) -> (ϑ [m], ϑ' [m/s], ϑ'' [m/s^2])`` that numba can compile (a plain
+        function is compiled here, once per function); ϑ'' is the smooth part of the
+        acceleration only (no impulses).  It is called once at t = 0: three finite numbers, or a
+        one-line ValueError.
     params : array of float
         Passed to ``fn`` as ``p``; changing them does not recompile anything.
     jumps : list of (time [s], velocity jump [m/s])
@@ -128,7 +134,15 @@ class AppliedMotion:
         if not callable(self.fn) or isinstance(self.fn, type):
             raise ValueError(f"motion fn = {self.fn!r} is not a function fn(t, p) -> (ϑ [m], ϑ' [m/s], ϑ'' [m/s^2])")
         if not isinstance(self.fn, numba.core.dispatcher.Dispatcher):
-            self.fn = numba.njit(self.fn)
+            # compiled once per function: the time loop's cache is keyed on this object, so a new
+            # one per AppliedMotion recompiled the whole loop for every amplitude of a sweep
+            if self.fn not in _JITTED:
+                try:
+                    _JITTED[self.fn] = numba.njit(self.fn)
+                except Exception as exc:
+                    raise ValueError(f"motion fn {name} cannot be compiled by numba (give a plain Python "
+                                     f"function): {' '.join(str(exc).split())[:300]}") from None
+            self.fn = _JITTED[self.fn]
         params = np.ascontiguousarray(np.atleast_1d(np.asarray(self.params, dtype=np.float64)))
         if not np.all(np.isfinite(params)):
             raise ValueError(f"motion params = {params.tolist()!r} must be finite numbers")
