@@ -299,6 +299,14 @@ def test_a_settle_time_after_t_end_is_a_settling_run_with_a_note(tmp_path):
     assert loads(tmp_path, resolved).setup == loads(tmp_path, text).setup
 
 
+def test_a_tap_period_with_one_tap_is_noted_not_used(tmp_path):
+    text = '[layer]\nkind = "tapped_layer"\ndim = 2\nt_end = 0.3\n'
+    assert LayerJob(loads(tmp_path, text + "tap_period = 0.0001\n"), tmp_path / "a.nc").notes() == [
+        "note: layer.tap_period = 0.0001 s is not used: n_taps = 1 (one tap has no period)"]
+    assert LayerJob(loads(tmp_path, text), tmp_path / "a.nc").notes() == []
+    assert LayerJob(loads(tmp_path, text + "n_taps = 2\ntap_period = 0.1\n"), tmp_path / "a.nc").notes() == []
+
+
 def test_a_box_of_exactly_the_least_cells_and_the_stated_least_height_are_accepted(tmp_path, capsys):
     """box_width = 0.009 m is 3 cells of 0.003 m, but 0.009 / 0.003 = 2.9999999999999996 was refused
     as "at least 0.009 m"; the least layer height stated was 0.01 m, itself refused (the layer's

@@ -1118,20 +1118,23 @@ class _LayerBase(RunJob):
         return self.vtk_writer.pvd.as_posix() if self.vtk_writer else None
 
     def notes(self):
-        """A note when the config gives a ``settle_time`` at or after ``t_end``: the floor does
-        not move in this run (not an error: a settling run; the column notes taps after
-        ``run.t_end`` the same way)."""
-        st = getattr(self.setup, "settle_time", None)
-        if st is None or st < self.t_end:
-            return []
+        """Notes (not errors) on fields the config gives that this run does not use: a
+        ``settle_time`` at or after ``t_end`` (the floor does not move: a settling run; the column
+        notes taps after ``run.t_end`` the same way), a ``tap_period`` with ``n_taps = 1`` (one
+        tap has no period; ``config_resolved`` writes every field, so this is not refused)."""
         try:
-            given = "settle_time" in tomllib.loads(self.cfg.text).get("layer", {})
+            layer = tomllib.loads(self.cfg.text).get("layer", {})
         except (tomllib.TOMLDecodeError, AttributeError):
-            given = True
-        if not given:
-            return []
-        return [f"note: layer.settle_time = {st:g} s is at or after layer.t_end = {self.t_end:g} s: the floor "
-                "does not move in this run (it only settles)"]
+            layer = {}
+        notes = []
+        st = getattr(self.setup, "settle_time", None)
+        if st is not None and st >= self.t_end and "settle_time" in layer:
+            notes.append(f"note: layer.settle_time = {st:g} s is at or after layer.t_end = {self.t_end:g} s: the "
+                         "floor does not move in this run (it only settles)")
+        if "tap_period" in layer and getattr(self.setup, "n_taps", None) == 1:
+            notes.append(f"note: layer.tap_period = {self.setup.tap_period:g} s is not used: n_taps = 1 (one tap "
+                         "has no period)")
+        return notes
 
 
 class LayerJob(_LayerBase):
