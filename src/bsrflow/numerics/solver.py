@@ -280,6 +280,19 @@ class SimulationError(RuntimeError):
         self.status = status
 
 
+def check_run_limits(max_steps, **nonnegative) -> None:
+    """Refuse (ValueError, one line naming it) a solver's stopping criterion or threshold that is
+    not a number in [0, inf) (``nonnegative``, by name) and a ``max_steps`` that is not an
+    integer >= 1: the checks the 1-D and the n-D solvers share."""
+    for name, v in nonnegative.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+            raise ValueError(f"{name} = {v!r} must be a number")
+        if not (np.isfinite(v) and v >= 0):
+            raise ValueError(f"{name} = {v!r} is outside the valid range [0, inf)")
+    if isinstance(max_steps, bool) or int(max_steps) != max_steps or max_steps < 1:
+        raise ValueError(f"max_steps = {max_steps!r} is outside the valid range: integers >= 1")
+
+
 class Simulation:
     """A BSR model on a grid with a scheme.
 
@@ -343,16 +356,9 @@ class Simulation:
         self.kappa = model.kernel.stiffness_moment()
         # the interaction's own wave-speed bound (for the seed's kernel √(κρ)), compiled in
         self._wave_speed_fn, self.wave_speed_params = model.kernel.compiled_wave_speed()
-        # the stopping criteria, as SimulationND checks them (a negative or NaN one was taken
-        # silently: max_steps = 0 stopped every run at its first step)
-        for name, v in (("rho_max", rho_max), ("dt_min", dt_min), ("strain_limit", strain_limit),
-                        ("top_tolerance", top_tolerance)):
-            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
-                raise ValueError(f"{name} = {v!r} must be a number")
-            if not (np.isfinite(v) and v >= 0):
-                raise ValueError(f"{name} = {v!r} is outside the valid range [0, inf)")
-        if isinstance(max_steps, bool) or int(max_steps) != max_steps or max_steps < 1:
-            raise ValueError(f"max_steps = {max_steps!r} is outside the valid range: integers >= 1")
+        # (a negative or NaN one was taken silently: max_steps = 0 stopped every run at its first step)
+        check_run_limits(max_steps, rho_max=rho_max, dt_min=dt_min, strain_limit=strain_limit,
+                         top_tolerance=top_tolerance)
         self.rho_max = float(rho_max)
         self.dt_min = float(dt_min)
         self.strain_limit = float(strain_limit)

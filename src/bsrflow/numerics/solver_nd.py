@@ -52,7 +52,7 @@ from .compiled_nd import make_core_nd
 from .grid import Grid1D
 from .grid_nd import GridND, ball_quadrature
 from .quadrature import quadrature_weights
-from .solver import Scheme, Simulation, SimulationError, _require_number, save_schedule
+from .solver import Scheme, Simulation, SimulationError, _require_number, check_run_limits, save_schedule
 from .steppers import get_stepper
 
 __all__ = ["SimulationND", "ResultND", "ReferenceND", "induced_kernel_1d", "embedding_error",
@@ -195,14 +195,8 @@ class SimulationND:
             raise ValueError(f"grid = {grid!r} must be a GridND")
         if average not in AVERAGES:
             raise ValueError(f"average = {average!r} is not one of {sorted(AVERAGES)}")
-        for name, v in (("rho_max", rho_max), ("dt_min", dt_min), ("top_tolerance", top_tolerance),
-                        ("vacuum_density", vacuum_density), ("density_floor", density_floor)):
-            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
-                raise ValueError(f"{name} = {v!r} must be a number")
-            if not (np.isfinite(v) and v >= 0):
-                raise ValueError(f"{name} = {v!r} is outside the valid range [0, inf)")
-        if int(max_steps) != max_steps or max_steps < 1:
-            raise ValueError(f"max_steps = {max_steps!r} is outside the valid range: integers >= 1")
+        check_run_limits(max_steps, rho_max=rho_max, dt_min=dt_min, top_tolerance=top_tolerance,
+                         vacuum_density=vacuum_density, density_floor=density_floor)
         top = vacuum_density if vacuum_density > 0 else np.inf
         if not (np.isfinite(density_floor) and 0 <= density_floor < top):
             rng = f"[0, vacuum_density = {vacuum_density!r})" if vacuum_density > 0 else "[0, inf)"

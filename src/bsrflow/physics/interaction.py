@@ -47,6 +47,25 @@ __all__ = ["Interaction", "linear_wave_speed", "constant_wave_speed", "register_
            "FAST_INTEGRALS"]
 
 
+def one_line(exc: BaseException, limit: int = 300) -> str:
+    """An exception's message on one line (whitespace collapsed, at most ``limit`` characters):
+    for the one-line errors about a user's kernel or motion that numba could not take."""
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return text if len(text) <= limit else text[:limit] + " ..."
+
+
+def compiled_for(fn, compiled, cache: dict, compile_fn):
+    """The compiled form of a kernel function ``fn``: ``compiled`` when it is a twin given
+    explicitly (not made by ``compile_fn``), else ``fn``'s own from ``cache`` (``compile_fn(fn)``).
+    A kernel copied with ``dataclasses.replace(k, fn=...)`` carries k's compiled function: one
+    that ``compile_fn`` made from another function is replaced (the compiled loop ran the old
+    kernel)."""
+    made_here = cache.get(getattr(compiled, "py_func", None)) is compiled
+    if compiled is None or (made_here and compiled.py_func is not fn):
+        return compile_fn(fn)
+    return compiled
+
+
 @numba.njit(cache=True, inline="always")
 def linear_wave_speed(rho_max, p):
     """c = √(p₀ ρ_max) [m/s]: the bound of a kernel linear in ρ (the seed's), p₀ = κ (1-D, c² = κρ,

@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from .interaction import Interaction, linear_wave_speed, register_fast_integral
+from .interaction import Interaction, compiled_for, linear_wave_speed, one_line, register_fast_integral
 
 __all__ = ["Kernel", "walton_braun", "walton_braun_from_contact", "zero_kernel",
            "dissipation_from_restitution", "restitution_from_dissipation"]
@@ -95,12 +95,7 @@ class Kernel(Interaction):
                              "(z, u_here, u_there, p) -> Θ written with NumPy ufuncs")
         if not (np.isfinite(self.radius) and self.radius >= 0):
             raise ValueError(f"kernel radius = {self.radius!r} is outside the valid range [0, inf) m")
-        # a copy made with dataclasses.replace(k, fn=...) carries k's compiled function: one that
-        # was compiled from another fn here is replaced (the compiled loop ran the old kernel); a
-        # compiled twin given explicitly (a kernel whose NumPy and numba forms differ) is kept
-        made_here = _COMPILED.get(getattr(self.compiled, "py_func", None)) is self.compiled
-        if self.compiled is None or (made_here and self.compiled.py_func is not self.fn):
-            self.compiled = _compile(self.fn)
+        self.compiled = compiled_for(self.fn, self.compiled, _COMPILED, _compile)
         self._kappa = None
         _probe_kernel(self)
 
@@ -167,11 +162,6 @@ _COMPILED: dict = {}
 _PROBED: set = set()
 
 
-def _one_line(exc: BaseException, limit: int = 300) -> str:
-    text = " ".join(str(exc).split()) or type(exc).__name__
-    return text if len(text) <= limit else text[:limit] + " ..."
-
-
 def _probe_kernel(kernel) -> None:
     """Evaluate a kernel function once as the solver will (compiled, on scalars, z = 0 included)
     and as the NumPy reference and κ do (on arrays), so that a function numba cannot compile, one
@@ -193,7 +183,7 @@ def _probe_kernel(kernel) -> None:
                          "finite there (np.sign(z) rather than z/|z|)") from None
     except Exception as exc:                                   # numba's typing and lowering errors
         raise ValueError(f"kernel fn {name} cannot be compiled for the time loop (arithmetic and NumPy "
-                         f"ufuncs only): {_one_line(exc)}") from None
+                         f"ufuncs only): {one_line(exc)}") from None
     try:
         z = np.linspace(-R, R, 5)
         values = np.asarray(kernel(z, np.zeros(5), np.ones(5)), dtype=float)
@@ -201,7 +191,7 @@ def _probe_kernel(kernel) -> None:
             raise TypeError(f"it returned shape {values.shape} for z of shape {z.shape}")
     except Exception as exc:
         raise ValueError(f"kernel fn {name} must also work on arrays (NumPy ufuncs, no Python if/else on "
-                         f"z or u): {_one_line(exc)}") from None
+                         f"z or u): {one_line(exc)}") from None
     _PROBED.add(key)
 
 
@@ -213,7 +203,7 @@ def _compile(fn):
             _COMPILED[fn] = numba.njit(inline="always")(fn)
         except Exception as exc:
             raise ValueError(f"kernel fn {fn!r} cannot be compiled by numba (give a plain Python function): "
-                             f"{_one_line(exc)}") from None
+                             f"{one_line(exc)}") from None
     return _COMPILED[fn]
 
 

@@ -37,7 +37,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from .interaction import Interaction, linear_wave_speed
+from .interaction import Interaction, compiled_for, linear_wave_speed
 from .motion import AppliedMotion, Rest
 
 __all__ = ["KernelND", "walton_braun_nd", "BSRModelND", "LINE_RESTRICTIONS"]
@@ -96,11 +96,7 @@ class KernelND(Interaction):
             raise ValueError(f"kernel params = {self.params.tolist()!r} must be finite numbers")
         if not (np.isfinite(self.radius) and self.radius > 0):
             raise ValueError(f"kernel radius = {self.radius!r} is outside the valid range (0, inf) m")
-        # as the 1-D Kernel: a compiled function made here from another fn (a copy by
-        # dataclasses.replace(k, fn=...)) is replaced; a compiled twin given explicitly is kept
-        made_here = _COMPILED.get(getattr(self.compiled, "py_func", None)) is self.compiled
-        if self.compiled is None or (made_here and self.compiled.py_func is not self.fn):
-            self.compiled = _compile(self.fn)
+        self.compiled = compiled_for(self.fn, self.compiled, _COMPILED, _compile)
 
     def __setattr__(self, name, value):
         object.__setattr__(self, name, value)

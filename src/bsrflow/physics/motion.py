@@ -45,6 +45,8 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
+from .interaction import one_line
+
 __all__ = [
     "AppliedMotion",
     "Rest",
@@ -141,7 +143,7 @@ class AppliedMotion:
                     _JITTED[self.fn] = numba.njit(self.fn)
                 except Exception as exc:
                     raise ValueError(f"motion fn {name} cannot be compiled by numba (give a plain Python "
-                                     f"function): {' '.join(str(exc).split())[:300]}") from None
+                                     f"function): {one_line(exc)}") from None
             self.fn = _JITTED[self.fn]
         params = np.ascontiguousarray(np.atleast_1d(np.asarray(self.params, dtype=np.float64)))
         if not np.all(np.isfinite(params)):
@@ -164,9 +166,8 @@ class AppliedMotion:
             if len(state) != 3:
                 raise TypeError(f"it returned {len(state)} values")
         except Exception as exc:                        # numba's typing errors, wrong returns
-            text = " ".join(str(exc).split()) or type(exc).__name__
             raise ValueError(f"motion fn {name}(t, p) must compile with numba and return (ϑ [m], ϑ' [m/s], "
-                             f"ϑ'' [m/s^2]); at t = 0: {text[:300]}") from None
+                             f"ϑ'' [m/s^2]); at t = 0: {one_line(exc)}") from None
         if not all(math.isfinite(v) for v in state):
             raise ValueError(f"motion fn {name}(0, p) = {state!r}: not finite")
 
