@@ -270,20 +270,28 @@ def test_velocity_extension_takes_a_nan_density_for_vacuum():
     assert u[5] == 4.0 and np.all(u[12:] == 11.0)
 
 
-def test_a_state_at_rest_without_a_wave_speed_falls_step_by_step():
-    """The zero kernel from rest under gravity: no velocity, no wave speed.  The step is the one
-    of falling one cell (cfl Δx / √(Δx g)), not one step to the next save (0.3 s in one step
-    ended at u = −6.8e5 m/s); the mass centre then follows free fall."""
+def _constant_floor_acceleration(t, p):        # ϑ = A t²/2: no jump, ϑ'' = A from t = 0
+    return 0.5 * p[0] * t * t, p[0] * t, p[0]
+
+
+def test_at_rest_without_gravity_the_floor_acceleration_sets_the_step():
+    """The zero kernel from rest: no velocity, no wave speed.  Here g = 0 and the floor accelerates
+    upward at A from t = 0 (no velocity jump), so the body force in the floor frame is -A.  The
+    step is the one of falling one cell, cfl Δx / √(Δx A), not one step to the next save (under
+    gravity, 0.3 s in one step ended at u = −6.8e5 m/s; the fallback then knew only g, and with
+    g = 0 still took that one step); the mass centre follows -A t²/2."""
     from bsrflow.physics.kernels import zero_kernel
+    from bsrflow.physics.motion import AppliedMotion
 
     grid = Grid1D(0.0, 1.0, 400, "floor", "vacuum")
     rho = np.where((grid.x > 0.5) & (grid.x < 0.7), 0.5, 0.0)
-    sim = Simulation(BSRModel(kernel=zero_kernel(), gravity=9.81), grid, Scheme.preset("seed"))
+    motion = AppliedMotion(_constant_floor_acceleration, [4.0])
+    sim = Simulation(BSRModel(kernel=zero_kernel(), gravity=0.0, motion=motion), grid, Scheme.preset("seed"))
     res = sim.run(np.zeros(grid.n_cells), rho, 0.3)
     centre = (res.rho[-1] * grid.x).sum() / res.rho[-1].sum()
     assert res.steps > 100
-    assert centre == pytest.approx(0.6 - 0.5 * 9.81 * 0.3 ** 2, abs=2e-3)
-    assert np.abs(res.u[-1]).max() < 4.0
+    assert centre == pytest.approx(0.6 - 0.5 * 4.0 * 0.3 ** 2, abs=2e-3)
+    assert np.abs(res.u[-1]).max() < 2.0
 
 
 def _divides_at_zero(z, u_here, u_there, p):
@@ -324,7 +332,7 @@ def _plain_motion(t, p):                       # no @numba.njit: AppliedMotion c
 
 def test_motion_and_model_arguments_are_checked_in_one_line():
     from bsrflow.physics.kernels_nd import walton_braun_nd
-    from bsrflow.physics.motion import AppliedMotion, HalfSineTaps
+    from bsrflow.physics.motion import AppliedMotion, HalfSineTaps, SinusoidalVibration
 
     assert AppliedMotion(_plain_motion, [2.0]).state(0.5)[2] == pytest.approx(2 * math.sin(0.5))
     cases = [
@@ -336,6 +344,8 @@ def test_motion_and_model_arguments_are_checked_in_one_line():
         (lambda: BSRModel(kernel=walton_braun_nd(1e3, 0.1, 0.05)), r"^kernel = KernelND must be .*use BSRModelND"),
         (lambda: BSRModel(kernel=_plain_motion), r"^kernel = _plain_motion must be .*Kernel\(fn, params, radius\)"),
         (lambda: BSRModel(motion=HalfSineTaps), r"^motion = HalfSineTaps must be an AppliedMotion \(call it"),
+        (lambda: HalfSineTaps(0.01, 1e9), r"^frequency = 1000000000.0 is outside the valid range \[0.001, 10000\] Hz"),
+        (lambda: SinusoidalVibration(0.01, 0.0), r"^frequency = 0.0 is outside the valid range \[0.001, 10000\] Hz"),
         (lambda: BSRModel(gravity="9.81"), r"^gravity = '9.81' must be a number"),
     ]
     for make, match in cases:

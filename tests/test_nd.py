@@ -546,3 +546,25 @@ def test_tracer_wraps_on_a_periodic_1d_grid():
                      Scheme(stepper="kutta3", filter=False, dt=1e-3, check_cfl=False))
     res = sim.run(np.ones(8), np.ones(8), 0.2, tracers=[0.05], save_times=[0.0, 0.2])
     assert res.tracers[-1][0] == pytest.approx((0.05 + 0.2) % 0.08, abs=1e-12)
+
+
+def _constant_floor_acceleration(t, p):        # ϑ = A t²/2: no jump, ϑ'' = A from t = 0
+    return 0.5 * p[0] * t * t, p[0] * t, p[0]
+
+
+def test_at_rest_without_a_wave_speed_the_body_force_sets_the_step():
+    """A layer at rest under no interaction (λ = 0: no wave speed) with g = 0 and a floor
+    accelerating at A from t = 0: the step is the one of falling one cell under the body force
+    -(g + ϑ''), cfl Δx / √(Δx A), and the layer falls as -A t²/2 (the fallback knew only g and,
+    with g = 0, took one step to the end)."""
+    from bsrflow.physics.kernels_nd import _walton_braun_nd
+    from bsrflow.physics.motion import AppliedMotion
+
+    grid = GridND((4, 4, 100), 0.01, bc_horizontal="periodic", bc_lower="floor", bc_upper="vacuum")
+    z = (np.arange(100) + 0.5) * 0.01
+    rho = np.broadcast_to(np.where((z > 0.5) & (z < 0.7), 0.5, 0.0), grid.shape).copy()
+    model = BSRModelND(KernelND(_walton_braun_nd, [0.0, 0.0, 0.02], 0.02), AppliedMotion(_constant_floor_acceleration, [4.0]), 0.0)
+    res = SimulationND(model, grid, Scheme.preset("seed")).run(np.zeros((3,) + grid.shape), rho, 0.1)
+    centre = float((res.rho[-1] * z).sum() / res.rho[-1].sum())
+    assert res.steps >= 4                      # cfl Δx / √(Δx A) = 0.02 s at the start
+    assert centre == pytest.approx(0.6 - 0.5 * 4.0 * 0.1 ** 2, abs=2e-3)

@@ -634,10 +634,14 @@ def make_core(integral_fn, external_fn, motion_fn, boundary_fn, wave_speed_fn):
                     umax = max(umax, abs(u[N - 1]))
                 speed = umax + WS(rmax, wsp)
                 if speed == 0.0:
-                    # at rest without a wave speed (a state at rest under the zero kernel): the speed gravity
-                    # gives in falling one cell, not a single step to the next event (which ran 0.3 s in one);
-                    # gravity only: a moving floor's or an external acceleration is not known here
-                    speed = math.sqrt(dx * abs(grav))
+                    # at rest without a wave speed (a state at rest under the zero kernel): the speed the
+                    # body force e(t, x, 0) - g - ϑ''(t) gives in one cell, not a single step to the next
+                    # event (which ran 0.3 s in one); its largest magnitude over the cells at this t
+                    frame = M(t, mp)[2]
+                    acc = 0.0
+                    for i in range(N):
+                        acc = max(acc, abs(E(t, xlo + (i + 0.5) * dx, 0.0, ep) - grav - frame))
+                    speed = math.sqrt(dx * acc)
                 dt = cfl * dx / speed if speed > 0.0 else t_end - t
             if adaptive and dt_prop < dt:
                 dt = dt_prop

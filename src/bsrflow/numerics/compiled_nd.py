@@ -456,10 +456,10 @@ def make_core_nd(kernel_fn, motion_fn, wave_speed_fn, positivity=False, tracers=
                 _row_stats(u, rho, smax, rmax, bad)
                 speed = smax.max() + WS(max(rmax.max(), 0.0), wsp)
                 if speed == 0.0:
-                    # at rest without a wave speed (a state at rest under the zero kernel): the speed gravity
-                    # gives in falling one cell, not a single step to the next event (which ran 0.3 s in one);
-                    # gravity only: a moving floor's or an external acceleration is not known here
-                    speed = math.sqrt(dx * abs(grav))
+                    # at rest without a wave speed (a state at rest under the zero kernel): the speed the
+                    # body force -(g + ϑ''(t)) gives in one cell, not a single step to the next event
+                    # (which ran 0.3 s in one)
+                    speed = math.sqrt(dx * abs(grav + M(t, mp)[2]))
                 dt = cfl * dx / speed if speed > 0.0 else t_end - t
             last = False
             if t + dt >= t_end - 1e-12 * max(abs(t_end), dt):

@@ -217,7 +217,7 @@ def HalfSineTaps(amplitude: float, frequency: float, start: float = 0.0, n_taps:
     Parameters
     ----------
     amplitude : a [m]
-    frequency : f [Hz]; ω = 2π f.  One tap lasts 1/(2f).
+    frequency : f [Hz], in :data:`FREQUENCY_RANGE`; ω = 2π f.  One tap lasts 1/(2f).
     start : time of the first tap t_0 [s]
     n_taps : number of taps
     period : time between tap starts [s]; with more than one tap at least the tap duration
@@ -227,7 +227,7 @@ def HalfSineTaps(amplitude: float, frequency: float, start: float = 0.0, n_taps:
     jumps are +aω; in the floor frame the material receives -aω at each.
     """
     _check_positive("amplitude", amplitude, allow_zero=True)
-    _check_positive("frequency", frequency)
+    check_frequency(frequency)
     _check_positive("start", start, allow_zero=True)
     if int(n_taps) != n_taps or n_taps < 1:
         raise ValueError(f"n_taps = {n_taps!r} is outside the valid range: integers >= 1")
@@ -255,7 +255,7 @@ def SinusoidalVibration(amplitude: float, frequency: float, start: float = 0.0) 
     The velocity jumps from 0 to aω at t0.
     """
     _check_positive("amplitude", amplitude, allow_zero=True)
-    _check_positive("frequency", frequency)
+    check_frequency(frequency)
     _check_positive("start", start, allow_zero=True)
     w = 2.0 * math.pi * frequency
     m = AppliedMotion(_sinusoid_state, [amplitude, w, start], [(start, amplitude * w)],
