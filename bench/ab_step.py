@@ -1,5 +1,5 @@
-"""Whole-step A/B against an earlier commit, in one process (how the README's "What changed
-today" gains were measured).
+"""Whole-step A/B against an earlier commit, in one process (how the "What changed
+today" gains of docs/performance.md were measured).
 
     python bench/ab_step.py --ref 131c662 [--ppd 40] [--scheme seed] [--repeats 15] [--steps 50]
 

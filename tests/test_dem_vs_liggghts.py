@@ -23,7 +23,7 @@ CASES = {c["name"]: c for c in list(PACKING_CASES) + [DEMO]}
 # The criteria: issue #18's for the continuum (top maximum within 5 %, its time within 5 %,
 # mass-centre RMS below 0.5 d) made ten times stricter, the time to the same 5-ms sample; and
 # the first tap's top maximum within 0.05 d (the DEM's own time-step error is 0.004-0.006 d,
-# README).  A first choice, 0.05 d for every tap's top maximum and for the top's RMS as well,
+# docs/seed-kernel.md).  A first choice, 0.05 d for every tap's top maximum and for the top's RMS as well,
 # was set before comparing and is not met by two of 16 later taps and one top RMS: the third taps
 # of the three-tap runs differ by 0.078 d and 0.056 d (0.26 %, 0.19 %; a landing's state
 # amplifies small differences into the next flight, as in the continuum) and the top's RMS over
@@ -66,7 +66,7 @@ def test_package_dem_equals_liggghts(name):
 
 
 def test_every_case_has_its_liggghts_run():
-    """The 15 cases above and the 14 columns of the README's "outside the 14 cases" (reported
+    """The 15 cases above and the 14 columns of docs/packing-column.md's "Outside the 14 cases" (reported
     by `run_liggghts_column.py --variants --compare`, not held to the criteria above, which were
     set on the 15 before those runs: their top maxima are within 0.30 % but up to 0.100 d apart
     in the higher throws, and one mass-centre RMS is 0.0505 d, at f = 20 Hz with a 94-d throw)."""

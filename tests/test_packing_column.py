@@ -2,7 +2,7 @@
 and restart with the history field, the comparison's JSON, the two formulations against each other
 and against the DEM, the stiffness option's documented bound.
 
-Small columns and coarse resolutions keep this fast; the numbers of the README come from
+Small columns and coarse resolutions keep this fast; the numbers of the README and docs/packing-column.md come from
 `bsrflow compare --kernel packing` and the bench scripts, not from here.
 """
 import json

@@ -100,10 +100,12 @@ def test_github_anchor_of_headings():
 
 
 def test_markdown_links_inside_the_repository_resolve():
-    """Every relative link of README.md and docs/model.md names a file that exists, and every
+    """Every relative link of README.md and of every docs/*.md names a file that exists, and every
     #anchor a heading of that file."""
     broken = []
-    for doc in ("README.md", "docs/model.md"):
+    docs = ["README.md"] + sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs").glob("*.md"))
+    assert len(docs) >= 6, docs
+    for doc in docs:
         path = ROOT / doc
         for target in re.findall(r"\]\(([^)\s]+)\)", path.read_text(encoding="utf-8")):
             if target.startswith(("http://", "https://", "mailto:")):

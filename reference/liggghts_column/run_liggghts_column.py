@@ -60,7 +60,7 @@ def _bed_reference():
 
 def cases(variants: bool = False) -> dict:
     """name -> ColumnSetup: issue #18's 14 cases and the demo's three taps 0.6 s apart; with
-    ``variants`` also the README's "outside the 14 cases" columns (``bench/check_packing_generality.py``:
+    ``variants`` also the "outside the 14 cases" columns of docs/packing-column.md (``bench/check_packing_generality.py``:
     one of e, N, f, K changed at d = 22 mm, a/d = 0.75 and 1.0), named ``<variant>_<case>``."""
     from bsrflow.analysis.compare_packing import PACKING_CASES, case_setup
     from bsrflow.physics.column import ColumnSetup

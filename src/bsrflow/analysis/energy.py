@@ -36,7 +36,7 @@ __all__ = ["energy_study", "add_parser"]
 
 DEFAULT_CALIBRATION = {"m0": 410.0, "kernel_dissipation": 0.83}
 """The fixed (m0 [kg], ε) of `bsrflow energy` without --calibration; not re-fitted (`bsrflow
-compare` calibrates its own values, README "The tapped column")."""
+compare` calibrates its own values, docs/seed-kernel.md)."""
 
 
 def _run(setup, scheme):

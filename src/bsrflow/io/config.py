@@ -14,7 +14,7 @@ The defaults are those of :class:`bsrflow.physics.column.ColumnSetup` except the
 constants m0 = 406 kg and kernel_dissipation = 0.9, the calibration that ``make demo``
 (``bsrflow demo``) measured on the single tap a/d = 0.75 before a change of summation order in
 the fast integral; it now finds (424 kg, 0.881) with the same residual, the fit being flat at the
-level of round-off (README) (the seed's printed m0 = 22 kg makes the resting column expand).
+level of round-off (docs/seed-kernel.md) (the seed's printed m0 = 22 kg makes the resting column expand).
 
 Every field is validated before a run: :func:`load_config` / :meth:`Config.from_dict` raise
 :class:`ConfigError` (a ``ValueError``) whose message is one line starting with the dotted field
@@ -119,7 +119,7 @@ def _num(v) -> str:
 
 
 _CAL = ("406 kg: the calibration that `make demo` measured on the single tap a/d = 0.75 (seed scheme; "
-        "it now finds 424 kg, 0.881 with the same residual: the fit is flat, README; the seed prints "
+        "it now finds 424 kg, 0.881 with the same residual: the fit is flat, docs/seed-kernel.md; the seed prints "
         "22 kg, with which the resting column expands)")
 
 FIELDS: tuple[_Field, ...] = (

@@ -574,7 +574,7 @@ class EulerianPackingND:
     STEP_CHUNK_CELL_STEPS = 1 << 22
     """Cell-steps per compiled call of a 2-D / 3-D run (at least one step): Python handles a
     signal (Ctrl-C, SIGTERM) only between calls, and 4.2e6 cell-steps take about a second (the
-    step's 65–140 ns per cell-stage, README).  The results do not depend on it (tested)."""
+    step's 65–153 ns per cell-stage, README, "Two and three dimensions").  The results do not depend on it (tested)."""
 
     PARALLEL_MIN_CELLS = 32768
     """Grids smaller than this run on one thread: waking the second thread for every parallel
