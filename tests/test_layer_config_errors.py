@@ -369,3 +369,15 @@ def test_the_stated_save_every_range_is_accepted_at_both_ends(text, tmp_path, ca
     assert m, err
     for end in m.groups():
         assert loads(tmp_path, f"[layer]\n{text}\nsave_every = {end}\n")
+
+
+@pytest.mark.parametrize("kind, key, name", [
+    ("granular_bed_eulerian", "dim", "dimension"), ("granular_bed_eulerian", "cells_per_diameter", "cells_per_d"),
+    ("packing_bed", "dimension", "dim"), ("tapped_layer", "cells_per_d", "cells_per_diameter"),
+    ("packing_bed", "settle", "settle_time"), ("packing_bed", "box_widht", "box_width"),
+])
+def test_a_key_of_another_layer_kind_or_misspelt_names_this_kinds_key(kind, key, name, tmp_path, capsys):
+    """The layer kinds name some settings differently (dim / dimension, cells_per_diameter /
+    cells_per_d, settle_time / settle): the refusal names this kind's key, as it does for a typo."""
+    err = refused(tmp_path, capsys, f'[layer]\nkind = "{kind}"\n{key} = 2\n')
+    assert f"layer.{key}: unknown key for kind = '{kind}' (did you mean {name}?); valid: " in err, err

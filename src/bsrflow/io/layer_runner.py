@@ -78,11 +78,20 @@ import numpy as np
 
 from .._bounds import printed_bound
 from .checkpoint import Checkpoint, checkpoint_path
-from .config import ConfigError
+from .config import ConfigError, _suggest
 from .driver import OTHER_KIND, RunJob, RunOutcome, drive, first_difference
 from ..physics.motion import MAX_SETTLE_TIME
 
 __all__ = ["is_layer_config", "load_layer_config", "run_layer_config", "LayerOutcome"]
+
+_LAYER_SYNONYMS = {
+    "dim": ("dimension",), "dimension": ("dim",),
+    "cells_per_d": ("cells_per_diameter",), "cells_per_diameter": ("cells_per_d",),
+    "settle": ("settle_time",), "settle_time": ("settle",),
+}
+"""The layer kinds' names for the same setting (the n-D layers' ``dim``, ``cells_per_diameter``,
+``settle_time``; the Eulerian bed's ``dimension``, ``cells_per_d``, ``settle``): a key of another
+kind is answered with this kind's name."""
 
 KINDS = ("tapped_layer", "vibrated_box", "packing_bed", "granular_bed", "granular_bed_eulerian")
 BED_KINDS = ("granular_bed", "granular_bed_eulerian")
@@ -189,7 +198,9 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
     ranges = _RANGES[kind]
     for key, value in layer.items():
         if key not in names:
-            raise ConfigError(f"layer.{key}", f"unknown key for kind = {kind!r}; valid: {', '.join(sorted(names))}")
+            near = next((n for n in _LAYER_SYNONYMS.get(key, ()) if n in names), "") or _suggest(key, names)
+            hint = f" (did you mean {near}?)" if near else ""
+            raise ConfigError(f"layer.{key}", f"unknown key for kind = {kind!r}{hint}; valid: {', '.join(sorted(names))}")
         _check_type(f"layer.{key}", value, str(names[key].type), ranges[key])
         kw[key] = value
     given = frozenset(layer)
