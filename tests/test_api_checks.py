@@ -383,3 +383,33 @@ def test_review_findings_on_wrapping_user_functions():
     assert replaced.compiled.py_func is soft and changed.compiled.py_func is soft
     with pytest.raises(ValueError, match=r"^kernel params = \[nan\] must be finite"):
         KernelND(soft, [math.nan], 0.05)
+
+
+def test_a_kernel_declaring_a_wave_speed_below_its_sound_speed_is_refused():
+    """A Kernel subclass may override its wave-speed bound; one below the sound speed √(κρ) of its
+    own Θ would let the CFL step outrun the waves, so the solver refuses it in one line.  A bound
+    above it (a stricter step) is taken."""
+    import dataclasses
+
+    from bsrflow.physics.interaction import constant_wave_speed
+    from bsrflow.physics.kernels import walton_braun
+
+    @dataclasses.dataclass(eq=False)
+    class Slow(type(walton_braun(1e3, 0.1, 0.05))):
+        speed: float = 0.0
+
+        def compiled_wave_speed(self):
+            return constant_wave_speed, np.array([self.speed])
+
+    base = walton_braun(1e3, 0.1, 0.05)
+    grid = Grid1D(0.0, 1.0, 200, "floor", "vacuum")
+    sound = math.sqrt(base.stiffness_moment() * 1000.0)
+    rho = np.where(grid.x < 0.3, 1000.0, 0.0)
+    slow = Slow(base.fn, base.params, base.radius, name="slow", speed=0.5 * sound)
+    with pytest.raises(ValueError, match=r"^kernel 'slow': its wave-speed bound c\(ρ = 1000 kg/m, the initial state's "
+                                         r"largest density\) = .* is below its linear sound speed") as err:
+        Simulation(BSRModel(kernel=slow), grid, Scheme.preset("seed")).run(np.zeros(grid.n_cells), rho, 0.01)
+    assert "\n" not in str(err.value)
+    fast = Slow(base.fn, base.params, base.radius, name="fast", speed=2.0 * sound)
+    from bsrflow.numerics.solver import _check_declared_bound
+    assert _check_declared_bound(fast, *fast.compiled_wave_speed(), 1000.0) is None     # taken (no compile here)

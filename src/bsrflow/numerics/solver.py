@@ -12,6 +12,7 @@ Happy path::
 
 from __future__ import annotations
 
+import math
 import time as _time
 from dataclasses import dataclass, field, asdict
 
@@ -176,6 +177,24 @@ class Scheme:
 
     def to_dict(self) -> dict:
         return asdict(self)
+
+
+def _check_declared_bound(kernel, ws_fn, ws_params, rho: float) -> None:
+    """Refuse a kernel whose declared wave-speed bound (its ``compiled_wave_speed``, which a
+    subclass may override) is below the sound speed of its own Θ at the density ``rho`` [kg/m]
+    (the initial state's largest), c = √(κρ) with κ measured by :meth:`Kernel.stiffness_moment`
+    (Appendix A, corrected): the CFL step would then be too long for the waves the kernel carries."""
+    from ..physics.kernels import Kernel
+    if not isinstance(kernel, Kernel) or not rho > 0.0:
+        return
+    kappa = Kernel.stiffness_moment(kernel)
+    declared = float(ws_fn(rho, ws_params))
+    sound = math.sqrt(kappa * rho)
+    if not declared >= sound * (1.0 - 1e-9):
+        raise ValueError(f"kernel {kernel.name!r}: its wave-speed bound c(ρ = {rho:.6g} kg/m, the initial state's "
+                         f"largest density) = {declared:.6g} m/s is below its linear sound speed √(κρ) = {sound:.6g} m/s "
+                         f"(κ = {kappa:.6g} m³ s⁻² kg⁻¹ measured from Θ): the CFL step would be too long; "
+                         "compiled_wave_speed must give at least √(κρ)")
 
 
 @dataclass
@@ -469,6 +488,7 @@ class Simulation:
         u, rho = arrays
         if not restart and np.any(rho < 0):
             raise ValueError(f"rho0 has negative values (min {rho.min():.3g} kg/m); density must be >= 0")
+        _check_declared_bound(self.model.kernel, self._wave_speed_fn, self.wave_speed_params, float(rho.max()))
         _require_number("t_start", t_start)
         _require_number("t_end", t_end)
         if not (np.isfinite(t_start) and np.isfinite(t_end) and t_end > t_start):
