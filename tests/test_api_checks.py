@@ -412,4 +412,6 @@ def test_a_kernel_declaring_a_wave_speed_below_its_sound_speed_is_refused():
     assert "\n" not in str(err.value)
     fast = Slow(base.fn, base.params, base.radius, name="fast", speed=2.0 * sound)
     from bsrflow.numerics.solver import _check_declared_bound
-    assert _check_declared_bound(fast, *fast.compiled_wave_speed(), 1000.0) is None     # taken (no compile here)
+    assert _check_declared_bound(fast, base.stiffness_moment(), *fast.compiled_wave_speed(), 1000.0) is None  # taken
+    exact = Slow(base.fn, base.params, base.radius, name="exact", speed=sound * (1.0 - 2e-7))  # κ's quadrature error
+    assert _check_declared_bound(exact, base.stiffness_moment(), *exact.compiled_wave_speed(), 1000.0) is None

@@ -184,8 +184,8 @@ def test_an_eulerian_bed_names_lateral_cells_not_the_cells_per_d_it_does_not_giv
 
 
 @pytest.mark.parametrize("kind, field", [
-    ("granular_bed", "frequency"), ("granular_bed", "diameter"), ("granular_bed", "side"),
-    ("granular_bed", "restitution"), ("granular_bed_eulerian", "frequency"), ("packing_bed", "coordination"),
+    ("granular_bed", "diameter"), ("granular_bed", "side"),
+    ("granular_bed", "restitution"), ("packing_bed", "coordination"),
     ("packing_bed", "t_end"),
 ])
 def test_a_value_that_divides_by_zero_names_the_field_and_its_bound(kind, field, tmp_path, capsys):
@@ -196,6 +196,17 @@ def test_a_value_that_divides_by_zero_names_the_field_and_its_bound(kind, field,
                  r"\(at least ([0-9.e+-]+) with the other fields as given\)", err)
     assert m and float(m.group(1)) > 1e-300, err
     assert "ZeroDivisionError" in err or "OverflowError" in err
+
+
+@pytest.mark.parametrize("kind", ["granular_bed", "granular_bed_eulerian", "packing_bed", "tapped_layer"])
+def test_every_layer_kind_takes_the_floor_frequency_in_one_range(kind, tmp_path, capsys):
+    """The floor's frequency has one range for every kind and for the motions, [1e-3, 1e4] Hz (the
+    bed kinds took (0, 1e4] and the bed then refused 5e-4 Hz inside the run's setup; 1e-300
+    divided by zero in their checks)."""
+    for value in ("1e-300", "0.0005", "20000.0"):
+        err = refused(tmp_path, capsys, f'[layer]\nkind = "{kind}"\nfrequency = {value}\n')
+        assert err.startswith(f"bsrflow run: error: layer.frequency: frequency = {value} is outside the valid range "
+                              "[0.001, 10000] Hz"), err
 
 
 def test_the_stated_t_end_bound_is_accepted(tmp_path, capsys):
@@ -381,3 +392,14 @@ def test_a_key_of_another_layer_kind_or_misspelt_names_this_kinds_key(kind, key,
     cells_per_d, settle_time / settle): the refusal names this kind's key, as it does for a typo."""
     err = refused(tmp_path, capsys, f'[layer]\nkind = "{kind}"\n{key} = 2\n')
     assert f"layer.{key}: unknown key for kind = '{kind}' (did you mean {name}?); valid: " in err, err
+
+
+@pytest.mark.parametrize("kind, key, other", [
+    ("granular_bed", "perturbation", "granular_bed_eulerian"), ("tapped_layer", "coordination", "packing_bed"),
+    ("granular_bed_eulerian", "n_cells", "granular_bed"), ("packing_bed", "dissipation", "tapped_layer"),
+])
+def test_a_setting_of_another_kind_only_is_named_as_such(kind, key, other, tmp_path, capsys):
+    """A setting that only another kind has is said to be that kind's, not matched to a look-alike
+    of this kind (difflib offered restitution for perturbation, dissipation for coordination)."""
+    err = refused(tmp_path, capsys, f'[layer]\nkind = "{kind}"\n{key} = 1\n')
+    assert f"layer.{key}: unknown key for kind = '{kind}' (a key of kind = '{other}'); valid: " in err, err

@@ -198,8 +198,16 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
     ranges = _RANGES[kind]
     for key, value in layer.items():
         if key not in names:
-            near = next((n for n in _LAYER_SYNONYMS.get(key, ()) if n in names), "") or _suggest(key, names)
-            hint = f" (did you mean {near}?)" if near else ""
+            near = next((n for n in _LAYER_SYNONYMS.get(key, ()) if n in names), "")
+            other = next((k for k, c in _kind_classes().items() if k != kind
+                          and key in {f.name for f in dataclasses.fields(c)} - set(_NOT_OPTIONS.get(k, ()))), "")
+            if near:
+                hint = f" (did you mean {near}?)"
+            elif other:                                     # not this kind's setting: no near name
+                hint = f" (a key of kind = {other!r})"
+            else:
+                near = _suggest(key, names)
+                hint = f" (did you mean {near}?)" if near else ""
             raise ConfigError(f"layer.{key}", f"unknown key for kind = {kind!r}{hint}; valid: {', '.join(sorted(names))}")
         _check_type(f"layer.{key}", value, str(names[key].type), ranges[key])
         kw[key] = value
@@ -457,7 +465,7 @@ _RANGES = {
         "phi_c": _Range(0, 0.74, lo_open=True, hi_open=True),
         "coordination": _Range(0, 12, lo_open=True),
         "gravity": _Range(0, 1e3, "m/s^2", lo_open=True),
-        "frequency": _Range(0, 1e4, "Hz", lo_open=True),
+        "frequency": _Range(1e-3, 1e4, "Hz"),
         "gamma": _Range(0, 20),
         "cycles": _Range(1, 1e7, integer=True),
         "settle": _Range(0, 10, "s"),

@@ -63,6 +63,7 @@ import numba
 import numpy as np
 
 from .._bounds import printed_bound
+from .motion import check_frequency
 from .packing_bed import MAX_STATIC_OVERLAP, MAX_STEPS      # the packing bed's bounds, the same here
 
 __all__ = ["BedSetup", "g0_cs", "kinetic_pressure", "bulk_viscosity", "shear_viscosity", "pressure_and_viscosity",
@@ -257,11 +258,11 @@ class BedSetup:
             raise ValueError(f"floor_loss = {self.floor_loss!r} is not one of the valid values: "
                              f"{' or '.join(repr(v) for v in FLOOR_LOSSES)}")
         for name, lo, hi in (("diameter", 0.0, 1.0), ("density", 0.0, 1e5), ("stiffness", 0.0, 1e12),
-                             ("side", 0.0, 100.0), ("gravity", 0.0, 1e3), ("frequency", 0.0, 1e4),
-                             ("save_every", 0.0, 1.0)):
+                             ("side", 0.0, 100.0), ("gravity", 0.0, 1e3), ("save_every", 0.0, 1.0)):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and lo < v <= hi):
                 raise ValueError(f"{name} = {v!r} is outside the valid range ({lo:g}, {hi:g}]")
+        check_frequency(self.frequency)            # the range of every floor motion, [1e-3, 1e4] Hz
         h = self.output_height
         if h is not None and (isinstance(h, bool) or not isinstance(h, (int, float)) or not math.isfinite(h)
                               or not 0.0 < h <= 100.0):
