@@ -568,3 +568,33 @@ def test_at_rest_without_a_wave_speed_the_body_force_sets_the_step():
     centre = float((res.rho[-1] * z).sum() / res.rho[-1].sum())
     assert res.steps >= 4                      # cfl Δx / √(Δx A) = 0.02 s at the start
     assert centre == pytest.approx(0.6 - 0.5 * 4.0 * 0.1 ** 2, abs=2e-3)
+
+
+def test_a_kernel_nd_declaring_a_wave_speed_below_its_sound_speed_is_refused():
+    """As in 1-D: a KernelND subclass whose declared bound is below √(n κ ρ) (κ the scheme's
+    discrete moment) at the initial state's largest density is refused in one line before any
+    step; the solver's own bound (the base class's) is taken."""
+    import dataclasses
+
+    from bsrflow.numerics.solver import _check_declared_bound
+    from bsrflow.physics.interaction import constant_wave_speed
+
+    @dataclasses.dataclass(eq=False)
+    class Slow(KernelND):
+        speed: float = 0.0
+
+        def compiled_wave_speed(self, dim=3, moment=None):
+            return constant_wave_speed, np.array([self.speed])
+
+    base = walton_braun_nd(LAM, 0.2, W * DX)
+    grid = GridND((4, 4, 12), DX, bc_horizontal="periodic", bc_lower="floor", bc_upper="vacuum")
+    rho = np.zeros(grid.shape)
+    rho[..., :6] = 1000.0
+    slow = Slow(base.fn, base.params, base.radius, name="slow", speed=0.1)
+    sim = SimulationND(BSRModelND(slow, HalfSineTaps(0.002, 10.0, start=0.004), 9.81), grid, Scheme.preset("seed"))
+    with pytest.raises(ValueError, match=r"^kernel 'slow': its wave-speed bound c\(ρ = 1000 kg/m\^3, the initial "
+                                         r"state's largest density\) = 0.1 m/s is below its linear sound speed") as err:
+        sim.run(np.zeros((3,) + grid.shape), rho, 1e-3)
+    assert "\n" not in str(err.value)
+    own = SimulationND(_model(), grid, Scheme.preset("seed"))
+    assert _check_declared_bound(base, 3 * own.kappa, own._wave_speed_fn, own.wave_speed_params, 1000.0) is None

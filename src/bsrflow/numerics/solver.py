@@ -179,22 +179,22 @@ class Scheme:
         return asdict(self)
 
 
-def _check_declared_bound(kernel, kappa, ws_fn, ws_params, rho: float) -> None:
+def _check_declared_bound(kernel, kappa, ws_fn, ws_params, rho: float, unit: str = "kg/m") -> None:
     """Refuse a kernel whose declared wave-speed bound (its ``compiled_wave_speed``, which a
-    subclass may override) is below the sound speed of its own Θ at the density ``rho`` [kg/m]
-    (the initial state's largest), c = √(κρ) with ``kappa`` = κ measured by
-    :meth:`Kernel.stiffness_moment` (Appendix A, corrected; None: not a Kernel, nothing to
-    check): the CFL step would then be too long for the waves the kernel carries.  The margin,
-    1e-6, is above the error of κ's quadrature (4001 points, about 1e-7), so a subclass that
-    declares the exact closed-form √(κρ) is taken."""
+    subclass may override) is below the sound speed of its own Θ at the density ``rho`` [``unit``]
+    (the initial state's largest), c = √(κρ), with ``kappa`` the κ that the solver measured from
+    Θ (1-D: :meth:`Kernel.stiffness_moment`, Appendix A corrected; n-D: n times the scheme's
+    discrete moment; None: nothing to check): the CFL step would then be too long for the waves
+    the kernel carries.  The margin, 1e-6, is above the error of κ's quadrature (about 1e-7 in
+    1-D), so a subclass that declares the exact closed-form bound is taken."""
     if kappa is None or not rho > 0.0:
         return
     declared = float(ws_fn(rho, ws_params))
-    sound = math.sqrt(kappa * rho)
+    sound = math.sqrt(max(kappa, 0.0) * rho)
     if not declared >= sound * (1.0 - 1e-6):
-        raise ValueError(f"kernel {kernel.name!r}: its wave-speed bound c(ρ = {rho:.6g} kg/m, the initial state's "
+        raise ValueError(f"kernel {kernel.name!r}: its wave-speed bound c(ρ = {rho:.6g} {unit}, the initial state's "
                          f"largest density) = {declared:.9g} m/s is below its linear sound speed √(κρ) = {sound:.9g} m/s "
-                         f"(κ = {kappa:.9g} m³ s⁻² kg⁻¹ measured from Θ): the CFL step would be too long; "
+                         f"(κ = {kappa:.9g} measured from Θ): the CFL step would be too long; "
                          "compiled_wave_speed must give at least √(κρ)")
 
 

@@ -52,7 +52,8 @@ from .compiled_nd import make_core_nd
 from .grid import Grid1D
 from .grid_nd import GridND, ball_quadrature
 from .quadrature import quadrature_weights
-from .solver import Scheme, Simulation, SimulationError, _require_number, check_run_limits, save_schedule
+from .solver import (Scheme, Simulation, SimulationError, _check_declared_bound, _require_number, check_run_limits,
+                     save_schedule)
 from .steppers import get_stepper
 
 __all__ = ["SimulationND", "ResultND", "ReferenceND", "induced_kernel_1d", "embedding_error",
@@ -411,6 +412,10 @@ class SimulationND:
         ui, ri = ui.copy(), ri.copy()
         if not restart and np.any(ri < 0):
             raise ValueError(f"rho0 has negative values (min {ri.min():.3g} kg/m^{g.dim}); density must be >= 0")
+        # a KernelND subclass's declared bound against √(n κ ρ), κ this scheme's discrete moment
+        from ..physics.kernels_nd import KernelND
+        _check_declared_bound(self.model.kernel, g.dim * self.kappa if isinstance(self.model.kernel, KernelND) else None,
+                              self._wave_speed_fn, self.wave_speed_params, float(ri.max()), f"kg/m^{g.dim}")
         _require_number("t_start", t_start)       # the checks of the 1-D Simulation.run
         _require_number("t_end", t_end)
         if not (np.isfinite(t_start) and np.isfinite(t_end) and t_end > t_start):
