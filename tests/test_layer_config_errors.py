@@ -403,3 +403,30 @@ def test_a_setting_of_another_kind_only_is_named_as_such(kind, key, other, tmp_p
     of this kind (difflib offered restitution for perturbation, dissipation for coordination)."""
     err = refused(tmp_path, capsys, f'[layer]\nkind = "{kind}"\n{key} = 1\n')
     assert f"layer.{key}: unknown key for kind = '{kind}' (a key of kind = '{other}'); valid: " in err, err
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_init_writes_a_commented_layer_config_of_every_kind_that_loads_to_its_defaults(kind, tmp_path, capsys):
+    """`bsrflow init PATH --layer KIND` writes every field the kind's config takes with its default and,
+    in a comment, the range its one-line error states; the file loads to the default scenario (the
+    same resolved config as the class's defaults)."""
+    from bsrflow.io.commands import _LAYER_KINDS
+    from bsrflow.io.layer_runner import GRANULAR_BED_SAVE_EVERY, BED_KINDS, LayerConfig, _range_text
+
+    assert _LAYER_KINDS == KINDS
+    path = tmp_path / f"{kind}.toml"
+    assert main(["init", str(path), "--layer", kind]) == 0
+    text = path.read_text()
+    cfg = load_layer_config(path)
+    cls = _kind_classes()[kind]
+    default = cls(**({"save_every": GRANULAR_BED_SAVE_EVERY} if kind in BED_KINDS else {}))
+    expected = LayerConfig(setup=default, vtk=False, checkpoint_every=None, text="").resolved_text()
+    assert cfg.resolved_text() == expected
+    assert f"frequency = {cfg.setup.frequency!r}" in text and f"# {_range_text(_RANGES[kind]['frequency'])}" in text
+    assert main(["init", str(tmp_path / "x.toml"), "--layer", kind, "--kernel", "packing"]) == 2
+    assert "--kernel: is not taken with --layer" in capsys.readouterr().err
+
+
+def test_an_unknown_output_key_is_answered_with_the_near_one(tmp_path, capsys):
+    err = refused(tmp_path, capsys, '[layer]\nkind = "tapped_layer"\n[output]\nvtkk = true\n')
+    assert "output.vtkk: unknown key (did you mean vtk?); valid: vtk, checkpoint_every, state" in err, err

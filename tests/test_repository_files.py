@@ -39,6 +39,9 @@ def test_the_checkout_has_the_files_these_checks_read():
     for expected in ("README.md", "CHANGELOG.md", "docs/model.md", "pyproject.toml",
                      "src/bsrflow/cli.py"):
         assert expected in names
+    # the license pyproject.toml declares is in the checkout and in the package's metadata files
+    assert "BSD 3-Clause License" in (ROOT / "LICENSE").read_text(encoding="utf-8")
+    assert 'license-files = ["LICENSE"]' in (ROOT / "pyproject.toml").read_text(encoding="utf-8")
 
 
 def test_no_text_file_is_larger_than_2_mb():

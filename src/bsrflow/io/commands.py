@@ -24,6 +24,10 @@ from .paths import check_output_file
 
 __all__ = ["add_parser"]
 
+_LAYER_KINDS = ("tapped_layer", "vibrated_box", "packing_bed", "granular_bed", "granular_bed_eulerian")
+"""The kinds of ``bsrflow init --layer`` (:data:`bsrflow.io.layer_runner.KINDS`, tested equal; not imported
+here so that ``bsrflow --help`` stays fast)."""
+
 
 def add_parser(sub):
     p = sub.add_parser("init", help="write a commented default config (TOML) for `bsrflow run`",
@@ -31,9 +35,12 @@ def add_parser(sub):
                                    "(units and valid ranges in the comments).")
     p.add_argument("path", metavar="PATH", help="file to write, e.g. column.toml (its folder must exist)")
     p.add_argument("--force", action="store_true", help="overwrite PATH if it exists and is a bsrflow config (or empty)")
-    p.add_argument("--kernel", choices=("seed", "packing"), default="seed",
+    p.add_argument("--kernel", choices=("seed", "packing"), default=None,
                    help="the interaction of the config: the seed's kernel (default; m0 and kernel_dissipation "
                         "calibrated) or the packing continuum (nothing fitted)")
+    p.add_argument("--layer", metavar="KIND", choices=_LAYER_KINDS, default=None,
+                   help="write a 2-D / 3-D layer or vibrated-bed config of this kind instead of a column's: "
+                        + ", ".join(_LAYER_KINDS) + " (every field with its default, valid range and unit)")
     p.set_defaults(func=_init)
 
     p = sub.add_parser("run", help="run a config (TOML) into a netCDF file, with checkpoints and --resume",
@@ -228,8 +235,15 @@ def _init(args) -> int:
     if os.path.exists(path) and not _replaceable_config(path):
         raise ConfigError(path, "exists and is not a bsrflow config (not empty, not TOML with bsrflow's tables): "
                           "--force replaces only configs; remove it yourself or choose another path")
+    if args.layer is not None and args.kernel is not None:
+        raise ConfigError("--kernel", "is not taken with --layer (the layer's kind sets its interaction)")
+    if args.layer is not None:
+        from .layer_runner import default_layer_config_text
+        text = default_layer_config_text(args.layer)
+    else:
+        text = default_config_text(args.kernel or "seed")
     with open(path, "w", encoding="utf-8") as fh:
-        fh.write(default_config_text(args.kernel))
+        fh.write(text)
     print(f"wrote {path}; run it with: bsrflow run {path}")
     return 0
 

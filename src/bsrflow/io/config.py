@@ -13,8 +13,9 @@ A configuration has four tables, every key optional (defaults below, SI units)::
 The defaults are those of :class:`bsrflow.physics.column.ColumnSetup` except the continuum
 constants m0 = 406 kg and kernel_dissipation = 0.9, the calibration that ``make demo``
 (``bsrflow demo``) measured on the single tap a/d = 0.75 before a change of summation order in
-the fast integral; it now finds (424 kg, 0.881) with the same residual, the fit being flat at the
-level of round-off (docs/seed-kernel.md) (the seed's printed m0 = 22 kg makes the resting column expand).
+the fast integral; the calibration of today's demo (a compass search since 2026-12-06) finds
+(409 kg, 0.896) with about the same residual, the fit being flat at the level of round-off
+(docs/seed-kernel.md) (the seed's printed m0 = 22 kg makes the resting column expand).
 
 Every field is validated before a run: :func:`load_config` / :meth:`Config.from_dict` raise
 :class:`ConfigError` (a ``ValueError``) whose message is one line starting with the dotted field
@@ -119,7 +120,7 @@ def _num(v) -> str:
 
 
 _CAL = ("406 kg: the calibration that `make demo` measured on the single tap a/d = 0.75 (seed scheme; "
-        "it now finds 424 kg, 0.881 with the same residual: the fit is flat, docs/seed-kernel.md; the seed prints "
+        "today's demo finds 409 kg, 0.896 with about the same residual: the fit is flat, docs/seed-kernel.md; the seed prints "
         "22 kg, with which the resting column expands)")
 
 FIELDS: tuple[_Field, ...] = (
@@ -179,9 +180,10 @@ FIELDS: tuple[_Field, ...] = (
            f"{_AUTO_CHECKPOINT:g} s rounded up to a whole number of snapshots, at most "
            f"{_AUTO_CHECKPOINTS} per run; 0: no checkpoints; at most t_end)", "s", 0, None),
     _Field("run", "write_state", "bool", False, "packing only: also write the discretisation's state "
-           "fields to the netCDF file at every snapshot, as state_<name> with units (eulerian: rho, momentum, "
-           "rho_delta_max on the grid; lagrangian: the material points' position, velocity and bond histories "
-           "delta_max); the same named fields as its checkpoints"),
+           "fields to the netCDF file at every snapshot, as state_<name> with units (eulerian, R = d: cell_mass, "
+           "velocity on the faces, the bonds' delta_max and delta_max_image, surface; eulerian, range_over_d = 0: "
+           "rho, momentum, rho_delta_max on the grid; lagrangian: the material points' position, velocity and bond "
+           "histories delta_max); the same named fields as its checkpoints"),
     # [numerics]
     _Field("numerics", "scheme", "str", "seed", "scheme preset: \"seed\" (Kutta RK3 + moving "
            "average every step, CFL 0.5) or \"accurate\" (four-stage RK4 rk4_0.4_0.25, CFL 0.2, "

@@ -144,6 +144,41 @@ class LayerConfig:
         return "\n".join(lines) + "\n"
 
 
+def default_layer_config_text(kind: str) -> str:
+    """A commented layer config of ``kind`` (one of :data:`KINDS`) for ``bsrflow init --layer``:
+    every field its config takes, with its default (the scenario class's, as ``config_resolved``
+    writes them) and, in a comment, its valid range and unit as its one-line errors state them.
+    Loading it gives the default scenario of that kind."""
+    if kind not in KINDS:
+        raise ConfigError("--layer", f"{kind!r} is not one of {', '.join(KINDS)}")
+    cls = _kind_classes()[kind]
+    setup = cls(**({"save_every": GRANULAR_BED_SAVE_EVERY} if kind in BED_KINDS else {}))
+    body = LayerConfig(setup=setup, vtk=False, checkpoint_every=None, text="").resolved_text().splitlines()
+    ranges = _RANGES[kind]
+    out = [f"# bsrflow layer config, kind = {kind!r}: every field with its default; the valid range and",
+           "# unit of each in its comment (SI units; the scenario narrows some ranges at the other",
+           f"# fields' values and says so when it refuses one).  Run it with: bsrflow run <this file>"]
+    table = ""
+    for line in body:
+        if line.startswith("["):
+            table = line
+            out.append(line)
+            continue
+        key = line.split("=", 1)[0].strip().lstrip("# ").split(":")[0].strip()
+        if table == "[layer]" and key in ranges and line.startswith("#"):     # a field not given by default
+            out.append(f"{line}; valid: {_range_text(ranges[key])}")
+        elif table == "[layer]" and key in ranges:
+            out.append(f"{line:<40s} # {_range_text(ranges[key])}")
+        elif table == "[output]" and key in _OUTPUT_KEYS:
+            note = {"vtk": "true: a VTK file per snapshot in <out stem>_vtk/ (ParaView: its .pvd)",
+                    "state": "true: also the discretisation's state fields, state_<name> with units",
+                    "checkpoint_every": "[s], 0: no checkpoints"}[key]
+            out.append(f"{line}; {note}" if line.startswith("#") else f"{line:<40s} # {note}")
+        else:
+            out.append(line)
+    return "\n".join(out) + "\n"
+
+
 def _toml_value(value) -> str:
     import json
     if isinstance(value, (bool, np.bool_)):
@@ -257,7 +292,9 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
     out = dict(data.get("output", {}))
     for key, value in out.items():
         if key not in _OUTPUT_KEYS:
-            raise ConfigError(f"output.{key}", f"unknown key; valid: {', '.join(_OUTPUT_KEYS)}")
+            near = _suggest(key, _OUTPUT_KEYS)
+            raise ConfigError(f"output.{key}", "unknown key" + (f" (did you mean {near}?)" if near else "")
+                              + f"; valid: {', '.join(_OUTPUT_KEYS)}")
     vtk = out.get("vtk", False)
     if not isinstance(vtk, bool):
         raise ConfigError("output.vtk", f"{vtk!r} must be true or false")
