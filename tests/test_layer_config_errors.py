@@ -430,3 +430,12 @@ def test_init_writes_a_commented_layer_config_of_every_kind_that_loads_to_its_de
 def test_an_unknown_output_key_is_answered_with_the_near_one(tmp_path, capsys):
     err = refused(tmp_path, capsys, '[layer]\nkind = "tapped_layer"\n[output]\nvtkk = true\n')
     assert "output.vtkk: unknown key (did you mean vtk?); valid: vtk, checkpoint_every, state" in err, err
+
+
+def test_a_field_whose_error_states_a_fixed_range_is_not_said_twice(tmp_path, capsys):
+    """An error that already names the field and its range ({1, 2, 3}, "integers in [a, b]") is
+    passed on as it is, not wrapped in "at these settings (at most 3 ...)" and repeated."""
+    err = refused(tmp_path, capsys, '[layer]\nkind = "granular_bed_eulerian"\ndimension = 4\n')
+    assert err == "bsrflow run: error: layer.dimension: dimension = 4 is outside the valid range {1, 2, 3}", err
+    err = refused(tmp_path, capsys, '[layer]\nkind = "granular_bed_eulerian"\ncells_per_d = 65\n')
+    assert err == "bsrflow run: error: layer.cells_per_d: cells_per_d = 65 is outside the valid range: integers in [1, 64]", err

@@ -842,7 +842,7 @@ def _bed_reblamed(cls, kw: dict, given, msg: str):
     fields = {f.name: f for f in dataclasses.fields(cls)}
     blamed = next((k for k in fields if msg.startswith(f"{k} = ")), None)
     without = {k: v for k, v in kw.items() if k != blamed}
-    states_range = re.search(r"valid range[^:]*[\[(]", msg) is not None
+    states_range = re.search(r"valid range(: integers in)?[^:]*[\[({]", msg) is not None      # [a, b], (a, b), {1, 2, 3}
     if blamed in given and states_range and valid(without):
         return None                                   # the message already names the field and its range
     order = ([blamed] if blamed in given else []) + [k for k in kw if k in given and k != blamed]   # config order
