@@ -422,7 +422,7 @@ def test_init_writes_a_commented_layer_config_of_every_kind_that_loads_to_its_de
     default = cls(**({"save_every": GRANULAR_BED_SAVE_EVERY} if kind in BED_KINDS else {}))
     expected = LayerConfig(setup=default, vtk=False, checkpoint_every=None, text="").resolved_text()
     assert cfg.resolved_text() == expected
-    assert f"frequency = {cfg.setup.frequency!r}" in text and f"# {_range_text(_RANGES[kind]['frequency'])}" in text
+    assert f"frequency = {cfg.setup.frequency!r}" in text and f"# valid: {_range_text(_RANGES[kind]['frequency'])}" in text
     assert main(["init", str(tmp_path / "x.toml"), "--layer", kind, "--kernel", "packing"]) == 2
     assert "--kernel: is not taken with --layer" in capsys.readouterr().err
 

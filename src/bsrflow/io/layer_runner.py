@@ -117,27 +117,35 @@ class LayerConfig:
     tracers: np.ndarray | None = None
     state: bool = False
 
-    def resolved_text(self) -> str:
+    def resolved_text(self, comment=None) -> str:
         """The config with every field of the scenario, the defaults included, as TOML (the
         output's ``config_resolved`` attribute: what ran, in full; ``config`` is the file as
         given, or with ``--set`` overrides the config as run, regenerated with a comment naming
-        them).  Loading it gives the same scenario."""
+        them).  Loading it gives the same scenario.  ``comment(table, key)``: an optional
+        comment [str or None] after each field (``bsrflow init --layer`` gives ranges and units)."""
         import json
         kind = {v: k for k, v in _kind_classes().items()}[type(self.setup)]
         lines = ["[layer]", f"kind = {json.dumps(kind)}"]
-        for f in dataclasses.fields(self.setup):
-            if f.name in _NOT_OPTIONS.get(kind, ()):       # a field its config does not take
-                continue
-            value = getattr(self.setup, f.name)
-            if value is None:
-                lines.append(f"# {f.name}: not given (derived by the scenario)")
+
+        def add(table, key, text):
+            note = comment(table, key) if comment is not None else None
+            if note is None:
+                lines.append(text)
+            elif text.startswith("#"):                    # a field not given: the note on the same line
+                lines.append(f"{text}; {note}")
             else:
-                lines.append(f"{f.name} = {_toml_value(value)}")
-        lines += ["[output]", f"vtk = {_toml_value(self.vtk)}", f"state = {_toml_value(self.state)}"]
-        if self.checkpoint_every is None:
-            lines.append("# checkpoint_every: not given (about every 0.1 s, or t_end/10 if shorter, on snapshot times)")
-        else:
-            lines.append(f"checkpoint_every = {_toml_value(self.checkpoint_every)}")
+                lines.append(f"{text:<40s} # {note}")
+
+        for name in _option_fields(kind):
+            value = getattr(self.setup, name)
+            add("layer", name, f"# {name}: not given (derived by the scenario)" if value is None
+                else f"{name} = {_toml_value(value)}")
+        lines.append("[output]")
+        add("output", "vtk", f"vtk = {_toml_value(self.vtk)}")
+        add("output", "state", f"state = {_toml_value(self.state)}")
+        add("output", "checkpoint_every",
+            "# checkpoint_every: not given (about every 0.1 s, or t_end/10 if shorter, on snapshot times)"
+            if self.checkpoint_every is None else f"checkpoint_every = {_toml_value(self.checkpoint_every)}")
         if self.tracers is not None:
             rows = ", ".join("[" + ", ".join(_toml_value(float(v)) for v in row) + "]" for row in self.tracers)
             lines += ["[tracers]", f"positions = [{rows}]"]
@@ -153,30 +161,27 @@ def default_layer_config_text(kind: str) -> str:
         raise ConfigError("--layer", f"{kind!r} is not one of {', '.join(KINDS)}")
     cls = _kind_classes()[kind]
     setup = cls(**({"save_every": GRANULAR_BED_SAVE_EVERY} if kind in BED_KINDS else {}))
-    body = LayerConfig(setup=setup, vtk=False, checkpoint_every=None, text="").resolved_text().splitlines()
     ranges = _RANGES[kind]
-    out = [f"# bsrflow layer config, kind = {kind!r}: every field with its default; the valid range and",
-           "# unit of each in its comment (SI units; the scenario narrows some ranges at the other",
-           f"# fields' values and says so when it refuses one).  Run it with: bsrflow run <this file>"]
-    table = ""
-    for line in body:
-        if line.startswith("["):
-            table = line
-            out.append(line)
-            continue
-        key = line.split("=", 1)[0].strip().lstrip("# ").split(":")[0].strip()
-        if table == "[layer]" and key in ranges and line.startswith("#"):     # a field not given by default
-            out.append(f"{line}; valid: {_range_text(ranges[key])}")
-        elif table == "[layer]" and key in ranges:
-            out.append(f"{line:<40s} # {_range_text(ranges[key])}")
-        elif table == "[output]" and key in _OUTPUT_KEYS:
-            note = {"vtk": "true: a VTK file per snapshot in <out stem>_vtk/ (ParaView: its .pvd)",
+    output_notes = {"vtk": "true: a VTK file per snapshot in <out stem>_vtk/ (ParaView: its .pvd)",
                     "state": "true: also the discretisation's state fields, state_<name> with units",
-                    "checkpoint_every": "[s], 0: no checkpoints"}[key]
-            out.append(f"{line}; {note}" if line.startswith("#") else f"{line:<40s} # {note}")
-        else:
-            out.append(line)
-    return "\n".join(out) + "\n"
+                    "checkpoint_every": "[s], 0: no checkpoints"}
+
+    def comment(table, key):
+        if table == "layer":
+            return f"valid: {_range_text(ranges[key])}" if key in ranges else None
+        return output_notes.get(key)
+
+    head = [f"# bsrflow layer config, kind = {kind!r}: every field with its default; the valid range and",
+            "# unit of each in its comment (SI units; the scenario narrows some ranges at the other",
+            "# fields' values and says so when it refuses one).  Run it with: bsrflow run <this file>"]
+    body = LayerConfig(setup=setup, vtk=False, checkpoint_every=None, text="").resolved_text(comment)
+    return "\n".join(head) + "\n" + body
+
+
+def _option_fields(kind: str) -> dict:
+    """The fields of ``kind``'s scenario class that its config takes (name -> dataclass field, in
+    the class's order; :data:`_NOT_OPTIONS` left out)."""
+    return {f.name: f for f in dataclasses.fields(_kind_classes()[kind]) if f.name not in _NOT_OPTIONS.get(kind, ())}
 
 
 def _toml_value(value) -> str:
@@ -226,7 +231,7 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
     if kind not in KINDS:
         raise ConfigError("layer.kind", f"{kind!r} is not one of {', '.join(KINDS)}")
     cls = _kind_classes()[kind]
-    names = {f.name: f for f in dataclasses.fields(cls) if f.name not in _NOT_OPTIONS.get(kind, ())}
+    names = _option_fields(kind)
     kw = {}
     if kind in BED_KINDS:
         kw["save_every"] = GRANULAR_BED_SAVE_EVERY      # a config run's default (compare-bed saves every 0.1 ms)
@@ -234,8 +239,7 @@ def _layer_config_from_text(text: str, overrides=(), name: str = "the config") -
     for key, value in layer.items():
         if key not in names:
             near = next((n for n in _LAYER_SYNONYMS.get(key, ()) if n in names), "")
-            other = next((k for k, c in _kind_classes().items() if k != kind
-                          and key in {f.name for f in dataclasses.fields(c)} - set(_NOT_OPTIONS.get(k, ()))), "")
+            other = next((k for k in KINDS if k != kind and key in _option_fields(k)), "")
             if near:
                 hint = f" (did you mean {near}?)"
             elif other:                                     # not this kind's setting: no near name
